@@ -1,0 +1,126 @@
+"""Command line: ``sacflow run``, ``sacflow validate``, ``sacflow schema``.
+
+A thin layer over :mod:`sacflow.config` and :mod:`sacflow.runner`. Mistakes in a case are
+printed as ``error: <message>`` with exit code 2, failed runs with exit code 1; never a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+from sacflow.config import load_case
+from sacflow.errors import ConfigError, SacflowError
+from sacflow.schema import Case, case_json_schema
+
+__all__ = ["main"]
+
+EXIT_RUN_FAILED = 1
+EXIT_CONFIG = 2
+EXIT_INTERRUPTED = 130
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``sacflow`` command; returns the exit code."""
+    args = _parser().parse_args(argv)
+    try:
+        return args.handler(args)
+    except ConfigError as exc:
+        _error(exc)
+        return EXIT_CONFIG
+    except (SacflowError, OSError) as exc:
+        _error(exc)
+        return EXIT_RUN_FAILED
+    except KeyboardInterrupt:
+        _error("interrupted; the completed steps are kept, run again to resume")
+        return EXIT_INTERRUPTED
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="sacflow", description="Semi-analytical elastic-plastic contact runs."
+    )
+    commands = parser.add_subparsers(dest="command", required=True)
+
+    run = commands.add_parser("run", help="run one or more cases, one netCDF file per case")
+    _add_case_arguments(run)
+    run.add_argument("--out", type=Path, default=Path("runs"), help="output folder (runs/)")
+    run.add_argument("--no-progress", action="store_true", help="no progress bar")
+    run.add_argument("--restart", action="store_true", help="ignore stored steps, start afresh")
+    run.set_defaults(handler=_run)
+
+    validate = commands.add_parser("validate", help="check cases and print their Hertz scales")
+    _add_case_arguments(validate)
+    validate.set_defaults(handler=_validate)
+
+    schema = commands.add_parser("schema", help="print the JSON schema of a case")
+    schema.set_defaults(handler=_schema)
+    return parser
+
+
+def _add_case_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("configs", nargs="+", type=Path, metavar="CONFIG", help="case file(s)")
+    parser.add_argument(
+        "--set",
+        dest="overrides",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="override a field, e.g. --set grid.nx=64 --set load_path.0.to=0.19",
+    )
+
+
+def _load_all(args: argparse.Namespace) -> list[Case]:
+    """Load every case first; all problems are reported together."""
+    cases, problems = [], []
+    for path in args.configs:
+        try:
+            cases.append(load_case(path, args.overrides))
+        except ConfigError as exc:
+            problems.append(str(exc))
+    if problems:
+        raise ConfigError("\n".join(problems))
+    return cases
+
+
+def _run(args: argparse.Namespace) -> int:
+    from sacflow.runner import run_case  # imports xarray and the solver only when running
+
+    status = 0
+    for case in _load_all(args):
+        try:
+            summary = run_case(
+                case, args.out, progress=not args.no_progress, resume=not args.restart
+            )
+        except SacflowError as exc:
+            _error(f"{case.name}: {exc}")
+            status = EXIT_RUN_FAILED
+            continue
+        print(summary.line())
+    return status
+
+
+def _validate(args: argparse.Namespace) -> int:
+    for case in _load_all(args):
+        hertz = case.hertz()
+        print(
+            f"OK {case.name} ({case.case_id}): a = {hertz.a * 1e6:.3f} µm, "
+            f"p0 = {hertz.p0 / 1e9:.3f} GPa, window {case.grid.nx} x {case.grid.ny} cells"
+        )
+    return 0
+
+
+def _schema(args: argparse.Namespace) -> int:
+    print(json.dumps(case_json_schema(), indent=2, ensure_ascii=False))
+    return 0
+
+
+def _error(message: object) -> None:
+    print(f"error: {message}", file=sys.stderr)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

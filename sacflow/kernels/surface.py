@@ -1,0 +1,345 @@
+r"""Closed-form fields of a normal load on the surface of an elastic half-space.
+
+Conventions
+-----------
+* SI units; the half-space occupies x3 >= 0 (x3 is the depth, positive *into* the body).
+* A compressive contact pressure ``p`` (and a compressive point force ``P``) is positive: it
+  pushes the surface in the +x3 direction.
+* Stress is positive in tension; a (..., 6) array holds the components in the order
+  (11, 22, 33, 12, 13, 23) on its last axis.
+* The normal surface displacement u3 is positive into the body (an indentation is positive).
+
+Method
+------
+Boussinesq's solution written with Love's potentials (Johnson, *Contact Mechanics*, CUP 1985,
+§3.2, eqs. 3.7–3.12): for a pressure p(ξ1, ξ2) on the surface, with
+ρ = |x − ξ| the distance from the load point,
+
+.. math::
+
+    \psi_1 = \iint p \ln(\rho + x_3)\, d\xi, \qquad
+    \varphi_1 = \partial_3 \psi_1 = \iint \frac{p}{\rho}\, d\xi,
+
+the displacements are (G the shear modulus)
+
+.. math::
+
+    u_\alpha = -\frac{(1-2\nu)\psi_{1,\alpha} + x_3 \varphi_{1,\alpha}}{4\pi G}, \qquad
+    u_3 = \frac{2(1-\nu)\varphi_1 - x_3 \varphi_{1,3}}{4\pi G},
+
+and Hooke's law (using that ψ1 and φ1 are harmonic) gives, for α, β ∈ {1, 2},
+
+.. math::
+
+    \sigma_{\alpha\beta} &= \frac{\nu}{\pi}\varphi_{1,3}\delta_{\alpha\beta}
+        - \frac{1}{2\pi}\left[(1-2\nu)\psi_{1,\alpha\beta} + x_3\varphi_{1,\alpha\beta}\right], \\
+    \sigma_{33} &= \frac{1}{2\pi}\left[\varphi_{1,3} - x_3\varphi_{1,33}\right], \qquad
+    \sigma_{\alpha 3} = -\frac{x_3}{2\pi}\varphi_{1,\alpha 3}.
+
+(derived here and checked symbolically; the transcription of the seed paper's appendix 2 is not
+used).  For a uniform pressure on the rectangle |ξ1| <= h1, |ξ2| <= h2 every second derivative
+is a *corner sum*: with X = x1 − ξ1, Y = x2 − ξ2 and a function F(X, Y) such that
+∂²F/∂X∂Y equals the integrand,
+
+.. math::
+
+    \iint g\, d\xi = F(x_1+h_1, x_2+h_2) - F(x_1+h_1, x_2-h_2)
+                   - F(x_1-h_1, x_2+h_2) + F(x_1-h_1, x_2-h_2).
+
+The corner functions used (terms depending on X alone or Y alone cancel in the sum and are
+dropped) are, with ρ = (X² + Y² + x3²)^½ and z = x3:
+
+=============  ==========================================================
+quantity       corner function F(X, Y)
+=============  ==========================================================
+φ1 (z = 0)     X asinh(Y/|X|) + Y asinh(X/|Y|)   (Love 1929)
+φ1,3           −atan(XY / (zρ))
+φ1,33          XY/ρ · [1/(X² + z²) + 1/(Y² + z²)]
+φ1,11          −XY / ((X² + z²) ρ)
+φ1,22          −XY / ((Y² + z²) ρ)
+φ1,12          1/ρ
+φ1,13          −zY / ((X² + z²) ρ)
+φ1,23          −zX / ((Y² + z²) ρ)
+ψ1,11          atan2(XY(X² + Y²)/(ρ + z), X²ρ + zY²)  (= atan(Y/X) − atan(zY/(Xρ)))
+ψ1,22          atan2(XY(X² + Y²)/(ρ + z), Y²ρ + zX²)
+ψ1,12          ln(ρ + z)
+=============  ==========================================================
+
+The ψ1,11 form combines the two arctangents into one whose denominator never vanishes for
+z > 0, so it is continuous where X changes sign: the corner sum is right under the loaded
+rectangle, under its edges and outside it.
+
+References
+----------
+* J. Boussinesq, *Application des potentiels à l'étude de l'équilibre et du mouvement des
+  solides élastiques*, Gauthier-Villars, Paris, 1885.
+* A. E. H. Love, "The stress produced in a semi-infinite solid by pressure on part of the
+  boundary", Phil. Trans. R. Soc. A 228 (1929) 377–420.
+* K. L. Johnson, *Contact Mechanics*, Cambridge University Press, 1985, §3.2–3.3.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+__all__ = [
+    "boussinesq_displacement",
+    "boussinesq_stress",
+    "rectangle_displacement",
+    "rectangle_stress",
+]
+
+_CORNERS: tuple[tuple[float, float, float], ...] = (
+    (1.0, 1.0, 1.0),
+    (1.0, -1.0, -1.0),
+    (-1.0, 1.0, -1.0),
+    (-1.0, -1.0, 1.0),
+)
+"""(sign of h1, sign of h2, weight) of the four corners in the corner sum."""
+
+
+def _as_float(*arrays: ArrayLike) -> list[NDArray[np.float64]]:
+    return [np.asarray(a, dtype=np.float64) for a in arrays]
+
+
+def _check_depth(x3: NDArray[np.float64]) -> None:
+    if np.any(x3 < 0.0):
+        raise ValueError("x3 is the depth below the surface and must be >= 0")
+
+
+def _safe_div(num: NDArray[np.float64], den: NDArray[np.float64]) -> NDArray[np.float64]:
+    """num / den, with 0 where den == 0 (limits that the callers know to be 0 or irrelevant)."""
+    zero = den == 0.0
+    return np.where(zero, 0.0, num / np.where(zero, 1.0, den))
+
+
+def _x_asinh(x: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64]:
+    """x asinh(y/|x|), continuous with value 0 at x = 0."""
+    ax = np.abs(x)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        val = x * np.arcsinh(y / np.where(ax == 0.0, 1.0, ax))
+    return np.where(ax == 0.0, 0.0, val)
+
+
+def rectangle_displacement(
+    x1: ArrayLike, x2: ArrayLike, half1: ArrayLike, half2: ArrayLike
+) -> NDArray[np.float64]:
+    r"""Geometric factor of the surface normal displacement under a uniformly loaded rectangle.
+
+    The normal displacement of the surface point (x1, x2, 0) of a half-space (E, ν) under a
+    uniform pressure p on |ξ1| <= half1, |ξ2| <= half2 is
+
+    .. math:: u_3 = \frac{1-\nu^2}{\pi E}\, p\, f(x_1, x_2),
+
+    with :math:`f = \iint d\xi / \rho` the corner sum of
+    X asinh(Y/|X|) + Y asinh(X/|Y|) (Love 1929; Johnson 1985, §3.3), which equals the
+    classic X ln(Y + ρ) + Y ln(X + ρ) up to terms that cancel in the sum.  For two bodies,
+    replace (1 − ν²)/E by 1/E*.
+
+    Parameters
+    ----------
+    x1, x2 : array_like
+        Surface coordinates of the field points relative to the rectangle centre [m].
+    half1, half2 : array_like
+        Half-widths of the rectangle along x1 and x2 [m] (> 0). All inputs broadcast.
+
+    Returns
+    -------
+    ndarray
+        f [m], broadcast shape of the inputs, float64.  Finite everywhere, including on the
+        rectangle's edges and corners (f is continuous there).
+    """
+    x1, x2, h1, h2 = _as_float(x1, x2, half1, half2)
+    f = np.zeros(np.broadcast_shapes(x1.shape, x2.shape, h1.shape, h2.shape))
+    for s1, s2, w in _CORNERS:
+        X = x1 + s1 * h1
+        Y = x2 + s2 * h2
+        f = f + w * (_x_asinh(X, Y) + _x_asinh(Y, X))
+    return f
+
+
+def rectangle_stress(
+    x1: ArrayLike,
+    x2: ArrayLike,
+    x3: ArrayLike,
+    half1: ArrayLike,
+    half2: ArrayLike,
+    nu: float,
+) -> NDArray[np.float64]:
+    r"""Stresses in a half-space per unit uniform pressure on a rectangle (Love 1929).
+
+    Closed form of the superposition of Boussinesq's point-load stresses over
+    |ξ1| <= half1, |ξ2| <= half2 (see the module docstring for the corner functions).
+
+    Parameters
+    ----------
+    x1, x2 : array_like
+        Lateral coordinates of the field points relative to the rectangle centre [m].
+    x3 : array_like
+        Depth of the field points [m], >= 0.  At x3 = 0 the surface limit is returned
+        (σ33 = −1 inside, 0 outside); values exactly on the edges at x3 = 0 are singular.
+    half1, half2 : array_like
+        Half-widths of the rectangle [m] (> 0).  All inputs broadcast.
+    nu : float
+        Poisson's ratio.
+
+    Returns
+    -------
+    ndarray, shape (..., 6)
+        σ11, σ22, σ33, σ12, σ13, σ23 per unit pressure (dimensionless; multiply by p [Pa]),
+        tension positive, compressive pressure positive.
+
+    Raises
+    ------
+    ValueError
+        If any x3 < 0.
+    """
+    x1, x2, z, h1, h2 = _as_float(x1, x2, x3, half1, half2)
+    _check_depth(z)
+    shape = np.broadcast_shapes(x1.shape, x2.shape, z.shape, h1.shape, h2.shape)
+    # second derivatives of ψ1 and φ1 (corner sums)
+    d = {
+        k: np.zeros(shape)
+        for k in ("p3", "p33", "p11", "p22", "p12", "p13", "p23", "s11", "s22", "s12")
+    }
+    z2 = z * z
+    with np.errstate(divide="ignore", invalid="ignore"):
+        for s1, s2, w in _CORNERS:
+            X = x1 + s1 * h1
+            Y = x2 + s2 * h2
+            XX, YY, XY = X * X, Y * Y, X * Y
+            rho = np.sqrt(XX + YY + z2)
+            a1 = XX + z2
+            a2 = YY + z2
+            d["p3"] += w * -np.arctan2(XY, z * rho)
+            d["p11"] += w * -_safe_div(XY, a1 * rho)
+            d["p22"] += w * -_safe_div(XY, a2 * rho)
+            d["p12"] += w * _safe_div(np.ones_like(rho), rho)
+            d["p13"] += w * -_safe_div(z * Y, a1 * rho)
+            d["p23"] += w * -_safe_div(z * X, a2 * rho)
+            num = _safe_div(XY * (XX + YY), rho + z)
+            d["s11"] += w * np.arctan2(num, XX * rho + z * YY)
+            d["s22"] += w * np.arctan2(num, YY * rho + z * XX)
+            d["s12"] += w * np.log(rho + z)
+    d["p33"] = -(d["p11"] + d["p22"])  # φ1 is harmonic
+    return _stress_from_potentials(d, z, nu)
+
+
+def _stress_from_potentials(
+    d: dict[str, NDArray[np.float64]], z: NDArray[np.float64], nu: float
+) -> NDArray[np.float64]:
+    """Assemble σ from the second derivatives of Love's potentials ψ1, φ1 (module docstring)."""
+    c = 1.0 / (2.0 * np.pi)
+    k = 1.0 - 2.0 * nu
+    iso = nu / np.pi * d["p3"]
+    shape = np.broadcast_shapes(d["p3"].shape, z.shape)
+    out = np.empty((*shape, 6))
+    out[..., 0] = iso - c * (k * d["s11"] + z * d["p11"])
+    out[..., 1] = iso - c * (k * d["s22"] + z * d["p22"])
+    out[..., 2] = c * (d["p3"] - z * d["p33"])
+    out[..., 3] = -c * (k * d["s12"] + z * d["p12"])
+    out[..., 4] = -c * z * d["p13"]
+    out[..., 5] = -c * z * d["p23"]
+    return out
+
+
+def boussinesq_stress(
+    x1: ArrayLike, x2: ArrayLike, x3: ArrayLike, nu: float
+) -> NDArray[np.float64]:
+    r"""Stresses of a unit compressive point force at the origin of a half-space (Boussinesq).
+
+    Obtained from the potentials ψ1 = ln(R + x3), φ1 = 1/R, R = |x| (Johnson 1985, eq. 3.20
+    in Cartesian form):
+
+    .. math::
+
+        \sigma_{\alpha\beta} &= -\frac{\nu x_3}{\pi R^3}\delta_{\alpha\beta}
+           - \frac{1}{2\pi}\Big[(1-2\nu)\Big(\frac{\delta_{\alpha\beta}}{R(R+x_3)}
+             - \frac{x_\alpha x_\beta (2R + x_3)}{R^3 (R+x_3)^2}\Big)
+             + x_3\Big(\frac{3 x_\alpha x_\beta}{R^5} - \frac{\delta_{\alpha\beta}}{R^3}\Big)
+             \Big], \\
+        \sigma_{33} &= -\frac{3 x_3^3}{2\pi R^5}, \qquad
+        \sigma_{\alpha 3} = -\frac{3 x_\alpha x_3^2}{2\pi R^5}.
+
+    Parameters
+    ----------
+    x1, x2, x3 : array_like
+        Field point relative to the load point [m]; x3 >= 0, not all zero.
+    nu : float
+        Poisson's ratio.
+
+    Returns
+    -------
+    ndarray, shape (..., 6)
+        Stress per unit force [1/m²] (multiply by P [N]), order (11, 22, 33, 12, 13, 23).
+    """
+    x1, x2, z = _as_float(x1, x2, x3)
+    _check_depth(z)
+    shape = np.broadcast_shapes(x1.shape, x2.shape, z.shape)
+    R = np.sqrt(x1 * x1 + x2 * x2 + z * z)
+    R3 = R**3
+    R5 = R3 * R * R
+    Rz = R + z
+    k = 1.0 - 2.0 * nu
+    c = 1.0 / (2.0 * np.pi)
+    a = 1.0 / (R * Rz)  # diagonal part of ψ1,αβ
+    b = (2.0 * R + z) / (R3 * Rz * Rz)  # x_α x_β part of ψ1,αβ
+    iso = -nu * z / (np.pi * R3)
+
+    def s_ab(xa, xb, delta: float) -> NDArray[np.float64]:
+        psi = delta * a - xa * xb * b
+        phi = 3.0 * xa * xb / R5 - delta / R3
+        return delta * iso - c * (k * psi + z * phi)
+
+    out = np.empty((*shape, 6))
+    out[..., 0] = s_ab(x1, x1, 1.0)
+    out[..., 1] = s_ab(x2, x2, 1.0)
+    out[..., 2] = -3.0 * c * z**3 / R5
+    out[..., 3] = s_ab(x1, x2, 0.0)
+    out[..., 4] = -3.0 * c * x1 * z * z / R5
+    out[..., 5] = -3.0 * c * x2 * z * z / R5
+    return out
+
+
+def boussinesq_displacement(
+    x1: ArrayLike, x2: ArrayLike, x3: ArrayLike, nu: float, E: float
+) -> NDArray[np.float64]:
+    r"""Displacements of a unit compressive point force at the origin of a half-space.
+
+    Johnson (1985) eq. 3.19, with G = E / (2(1+ν)) and R = |x|:
+
+    .. math::
+
+        u_\alpha = \frac{1}{4\pi G}\left[\frac{x_\alpha x_3}{R^3}
+                   - \frac{(1-2\nu) x_\alpha}{R (R + x_3)}\right], \qquad
+        u_3 = \frac{1}{4\pi G}\left[\frac{2(1-\nu)}{R} + \frac{x_3^2}{R^3}\right].
+
+    On the surface u3 = (1 − ν²)/(π E r).
+
+    Parameters
+    ----------
+    x1, x2, x3 : array_like
+        Field point relative to the load point [m]; x3 >= 0, not all zero.
+    nu : float
+        Poisson's ratio.
+    E : float
+        Young's modulus [Pa].
+
+    Returns
+    -------
+    ndarray, shape (..., 3)
+        (u1, u2, u3) per unit force [m/N]; u3 positive into the body.
+    """
+    x1, x2, z = _as_float(x1, x2, x3)
+    _check_depth(z)
+    shape = np.broadcast_shapes(x1.shape, x2.shape, z.shape)
+    G = E / (2.0 * (1.0 + nu))
+    R = np.sqrt(x1 * x1 + x2 * x2 + z * z)
+    c = 1.0 / (4.0 * np.pi * G)
+    lateral = z / R**3 - (1.0 - 2.0 * nu) / (R * (R + z))
+    out = np.empty((*shape, 3))
+    out[..., 0] = c * x1 * lateral
+    out[..., 1] = c * x2 * lateral
+    out[..., 2] = c * (2.0 * (1.0 - nu) / R + z * z / R**3)
+    return out

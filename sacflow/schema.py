@@ -1,0 +1,513 @@
+"""Case description: frozen pydantic v2 models of one sacflow run (DESIGN §2, STYLE 9).
+
+A :class:`Case` holds everything that defines a run: the elastic-plastic body (body 1) and its
+hardening law, the counter-body, the surface (smooth, dented, measured), the grid, the load path,
+the solver options and the output selection. Every model is frozen and rejects unknown keys; a
+case is hashable and identified by :attr:`Case.case_id`, the hash of its canonical JSON. Sweeps
+are ``case.model_copy(update=...)``.
+
+Units are SI everywhere: m, Pa, N. ``x3`` is depth, positive into the body. Sequences are stored
+as tuples so that a case cannot be changed in place.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+from pydantic_core import PydanticCustomError
+
+from sacflow.reference import HertzContact, composite_modulus, effective_radius, hertz_contact
+from sacflow.state import SCALAR_FIELDS, SURFACE_FIELDS, VOLUME_FIELDS
+
+__all__ = [
+    "Body",
+    "Case",
+    "Counterbody",
+    "Dent",
+    "Dented",
+    "DepthProfile",
+    "Elastic",
+    "Grid",
+    "HardeningLaw",
+    "Hold",
+    "Linear",
+    "Load",
+    "Measured",
+    "Output",
+    "PerfectlyPlastic",
+    "Roll",
+    "Segment",
+    "Smooth",
+    "SolverOptions",
+    "Surface",
+    "Swift",
+    "Tabular",
+    "Unload",
+    "case_json_schema",
+    "field_error",
+]
+
+#: Least number of surface cells across the Hertz contact diameter 2a at the maximum load.
+MIN_CELLS_PER_DIAMETER = 8
+#: Least window half-width, in Hertz contact radii at the maximum load.
+MIN_HALF_WIDTH = 1.1
+#: Error type of the case-level checks; its context names the offending field.
+FIELD_ERROR = "sacflow_field"
+
+PositiveFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
+NonNegativeFloat = Annotated[float, Field(ge=0, allow_inf_nan=False)]
+FiniteFloat = Annotated[float, Field(allow_inf_nan=False)]
+PositiveInt = Annotated[int, Field(ge=1)]
+#: Radius of curvature [m]; ``inf`` stands for a flat surface.
+Radius = Annotated[float, Field(gt=0)]
+PoissonRatio = Annotated[float, Field(gt=-1, lt=0.5)]
+FieldName = Literal[SCALAR_FIELDS + SURFACE_FIELDS + VOLUME_FIELDS]  # type: ignore[valid-type]
+
+
+def field_error(field: str, message: str) -> PydanticCustomError:
+    """Return a validation error for a cross-field check that names ``field`` (dotted path).
+
+    ``field`` is relative to the model that raises it; :mod:`sacflow.config` appends it to the
+    error location. ``message`` must not contain braces.
+    """
+    return PydanticCustomError(FIELD_ERROR, message, {"field": field})
+
+
+def _strictly_increasing(values: tuple[float, ...]) -> bool:
+    return all(b > a for a, b in zip(values, values[1:], strict=False))
+
+
+class Model(BaseModel):
+    """Base of every sacflow model: immutable, hashable, unknown keys rejected."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid", ser_json_inf_nan="strings")
+
+
+# --------------------------------------------------------------------------- hardening laws
+class DepthProfile(Model):
+    """Depth dependence of the yield stress: σ_Y(εp, x3) = factor(x3) · σ_Y(εp).
+
+    Linear interpolation between the points, constant beyond the first and last depth.
+    """
+
+    depth: tuple[NonNegativeFloat, ...] = Field(
+        min_length=1, description="depths x3 of the profile points [m], strictly increasing"
+    )
+    factor: tuple[PositiveFloat, ...] = Field(
+        min_length=1, description="yield-stress factors at those depths (1 = unchanged)"
+    )
+
+    @model_validator(mode="after")
+    def _check_points(self) -> DepthProfile:
+        if len(self.factor) != len(self.depth):
+            raise field_error("factor", "must have one value per depth")
+        if not _strictly_increasing(self.depth):
+            raise field_error("depth", "must be strictly increasing")
+        return self
+
+
+class Elastic(Model):
+    """No plasticity: the body stays elastic."""
+
+    law: Literal["elastic"] = "elastic"
+
+
+class _Plastic(Model):
+    depth_profile: DepthProfile | None = Field(
+        None, description="optional depth dependence of the yield stress (surface hardening)"
+    )
+
+
+class Swift(_Plastic):
+    """Swift law σ_Y = B (C + εp)^n, εp in ``strain_unit`` (the seed uses micro-strain)."""
+
+    law: Literal["swift"] = "swift"
+    B: PositiveFloat = Field(description="Swift stress coefficient B [Pa]")
+    C: NonNegativeFloat = Field(description="Swift strain offset C, in strain_unit")
+    n: float = Field(gt=0, lt=1, description="Swift hardening exponent n")
+    strain_unit: Literal["strain", "microstrain"] = Field(
+        description='unit of εp and C in the Swift law ("microstrain": σ_Y = B (C + 1e6 εp)^n)'
+    )
+
+
+class Linear(_Plastic):
+    """Linear hardening σ_Y = σ_Y0 + H εp."""
+
+    law: Literal["linear"] = "linear"
+    yield_stress: PositiveFloat = Field(description="initial yield stress σ_Y0 [Pa]")
+    modulus: NonNegativeFloat = Field(description="plastic hardening modulus H [Pa]")
+
+
+class PerfectlyPlastic(_Plastic):
+    """No hardening: σ_Y constant."""
+
+    law: Literal["perfectly_plastic"] = "perfectly_plastic"
+    yield_stress: PositiveFloat = Field(description="yield stress σ_Y [Pa]")
+
+
+class Tabular(_Plastic):
+    """Piecewise-linear measured hardening curve σ_Y(εp), constant beyond the last point."""
+
+    law: Literal["tabular"] = "tabular"
+    plastic_strain: tuple[NonNegativeFloat, ...] = Field(
+        min_length=2, description="equivalent plastic strains, from 0, strictly increasing"
+    )
+    stress: tuple[PositiveFloat, ...] = Field(
+        min_length=2, description="yield stresses at those strains [Pa], non-decreasing"
+    )
+
+    @model_validator(mode="after")
+    def _check_curve(self) -> Tabular:
+        if len(self.stress) != len(self.plastic_strain):
+            raise field_error("stress", "must have one value per plastic_strain point")
+        if self.plastic_strain[0] != 0.0:
+            raise field_error("plastic_strain", "must start at 0 (the initial yield point)")
+        if not _strictly_increasing(self.plastic_strain):
+            raise field_error("plastic_strain", "must be strictly increasing")
+        if any(b < a for a, b in zip(self.stress, self.stress[1:], strict=False)):
+            raise field_error("stress", "must be non-decreasing (no softening)")
+        return self
+
+
+HardeningLaw = Annotated[
+    Elastic | Swift | Linear | PerfectlyPlastic | Tabular, Field(discriminator="law")
+]
+
+
+# --------------------------------------------------------------------------- bodies
+class Body(Model):
+    """The elastic-plastic half-space (body 1)."""
+
+    E: PositiveFloat = Field(description="Young's modulus of the body [Pa]")
+    nu: PoissonRatio = Field(description="Poisson's ratio of the body")
+    radii: tuple[Radius, Radius] = Field(
+        (math.inf, math.inf),
+        description="principal radii of curvature along x1, x2 [m] (inf = flat)",
+    )
+    hardening: HardeningLaw = Field(description="hardening law of the body, chosen by 'law'")
+
+
+class Counterbody(Model):
+    """The counter-body: rigid or elastic, a sphere (``radius``) or an ellipsoid (``radii``)."""
+
+    kind: Literal["rigid", "elastic"] = Field(description="rigid or elastic counter-body")
+    E: PositiveFloat | None = Field(None, description="Young's modulus of the counterbody [Pa]")
+    nu: PoissonRatio | None = Field(None, description="Poisson's ratio of the counterbody")
+    radius: Radius | None = Field(None, description="sphere radius [m]")
+    radii: tuple[Radius, Radius] | None = Field(
+        None, description="principal radii of curvature along x1, x2 [m] (ellipsoid)"
+    )
+
+    @model_validator(mode="after")
+    def _check_counterbody(self) -> Counterbody:
+        if (self.radius is None) == (self.radii is None):
+            raise field_error("radius", "give exactly one of radius (sphere) or radii (ellipsoid)")
+        for name in ("E", "nu"):
+            given = getattr(self, name) is not None
+            if self.kind == "elastic" and not given:
+                raise field_error(name, f'required when kind = "elastic"; add counterbody.{name}')
+            if self.kind == "rigid" and given:
+                raise field_error(
+                    name,
+                    f'not allowed when kind = "rigid"; remove counterbody.{name} '
+                    'or set kind = "elastic"',
+                )
+        return self
+
+    @property
+    def principal_radii(self) -> tuple[float, float]:
+        """Principal radii of curvature (R1, R2) along x1, x2 [m]."""
+        if self.radii is not None:
+            return self.radii
+        assert self.radius is not None  # guaranteed by validation
+        return (self.radius, self.radius)
+
+
+# --------------------------------------------------------------------------- surfaces
+class Smooth(Model):
+    """Smooth surfaces: the gap is the quadratic Hertz geometry only."""
+
+    kind: Literal["smooth"] = "smooth"
+
+
+class Dent(Model):
+    """A dent on body 1: profile A cos(2π r/w) exp(-decay r²/w²), a hollow of depth A."""
+
+    depth: PositiveFloat = Field(description="dent amplitude A [m]")
+    width: PositiveFloat = Field(description="dent width w [m]")
+    decay: PositiveFloat = Field(13.0, description="decay coefficient of the envelope")
+    x1: FiniteFloat = Field(0.0, description="dent centre along x1 [m] (body frame)")
+    x2: FiniteFloat = Field(0.0, description="dent centre along x2 [m] (body frame)")
+
+
+class Dented(Model):
+    """A smooth surface with one or more dents."""
+
+    kind: Literal["dented"] = "dented"
+    dents: tuple[Dent, ...] = Field(min_length=1, description="the dents on body 1")
+
+
+class Measured(Model):
+    """A measured surface read from a file (x1, x2, height grid)."""
+
+    kind: Literal["measured"] = "measured"
+    path: Path = Field(description="surface file (relative to the config file)")
+    format: Literal["auto", "netcdf", "text"] = Field(
+        "auto", description="file format; auto: netCDF for .nc files, else x1 x2 height columns"
+    )
+    variable: str = Field("height", description="name of the height variable in a netCDF file")
+
+
+Surface = Annotated[Smooth | Dented | Measured, Field(discriminator="kind")]
+
+
+# --------------------------------------------------------------------------- grid
+class Grid(Model):
+    """Surface grid of the contact window and cuboid layers of the plastic box."""
+
+    nx: int = Field(ge=8, description="number of surface cells along x1")
+    ny: int = Field(ge=8, description="number of surface cells along x2")
+    nz: PositiveInt = Field(description="number of cuboid layers in depth")
+    half_width: PositiveFloat = Field(
+        1.5, description="window half-size in Hertz contact radii at the maximum load"
+    )
+    extent: tuple[PositiveFloat, PositiveFloat] | None = Field(
+        None, description="full window size (L1, L2) [m]; overrides half_width"
+    )
+    depth: PositiveFloat | None = Field(
+        None, description="depth of the cuboid box [m]; omit to let the solver size it"
+    )
+
+
+# --------------------------------------------------------------------------- load path
+class Load(Model):
+    """Raise the normal load to ``to`` in ``increments`` equal steps."""
+
+    kind: Literal["load"] = "load"
+    to: PositiveFloat = Field(description="normal load at the end of the segment [N]")
+    increments: PositiveInt = Field(description="number of load increments")
+
+
+class Unload(Model):
+    """Lower the normal load to ``to`` (default: full unload)."""
+
+    kind: Literal["unload"] = "unload"
+    to: NonNegativeFloat = Field(0.0, description="normal load at the end of the segment [N]")
+    increments: PositiveInt = Field(description="number of unload increments")
+
+
+class Hold(Model):
+    """Keep the load constant (re-converge the coupled problem)."""
+
+    kind: Literal["hold"] = "hold"
+    increments: PositiveInt = Field(1, description="number of hold steps")
+
+
+class Roll(Model):
+    """Move the load over the body at constant load."""
+
+    kind: Literal["roll"] = "roll"
+    distance: PositiveFloat = Field(description="rolled distance [m]")
+    steps: PositiveInt = Field(description="number of rolling steps")
+    direction: tuple[FiniteFloat, FiniteFloat] = Field(
+        (1.0, 0.0), description="rolling direction (d1, d2) in the surface plane, normalised"
+    )
+
+    @field_validator("direction")
+    @classmethod
+    def _normalise(cls, value: tuple[float, float]) -> tuple[float, float]:
+        norm = math.hypot(*value)
+        if not (0.0 < norm < math.inf):
+            raise ValueError("must be a non-zero vector (d1, d2)")
+        return (value[0] / norm, value[1] / norm)
+
+
+Segment = Annotated[Load | Unload | Hold | Roll, Field(discriminator="kind")]
+
+
+# --------------------------------------------------------------------------- options
+class SolverOptions(Model):
+    """Tolerances, iteration limits and acceleration of the three nested loops."""
+
+    contact_tolerance: PositiveFloat = Field(1e-10, description="relative gap error, contact")
+    contact_max_iterations: PositiveInt = Field(2000, description="contact iteration limit")
+    plasticity_tolerance: PositiveFloat = Field(1e-6, description="plastic strain tolerance")
+    plasticity_max_iterations: PositiveInt = Field(500, description="plasticity iteration limit")
+    coupling_tolerance: PositiveFloat = Field(1e-6, description="contact-plasticity tolerance")
+    coupling_max_iterations: PositiveInt = Field(200, description="coupling iteration limit")
+    acceleration: Literal["anderson", "none"] = Field(
+        "anderson", description="fixed-point acceleration"
+    )
+    anderson_depth: PositiveInt = Field(5, description="Anderson mixing history depth")
+    plastic_margin: PositiveFloat = Field(
+        0.1, description="relative margin below yield used to size the plastic box"
+    )
+    fft_threads: PositiveInt | None = Field(None, description="FFT threads (default: all cores)")
+
+
+class Output(Model):
+    """What the store writes."""
+
+    fields: tuple[FieldName, ...] | None = Field(
+        None, description="variables to store (default: all)"
+    )
+    volume_every: PositiveInt = Field(1, description="store volume fields every k steps")
+    compression: int = Field(1, ge=0, le=9, description="zlib compression level")
+
+
+# --------------------------------------------------------------------------- case
+class Case(Model):
+    """One run: bodies, surface, grid, load path, solver options, output."""
+
+    name: str = Field(
+        pattern=r"^[a-z0-9][a-z0-9_-]*$",
+        description="case name: lowercase letters, digits, '-' and '_' (the output file name)",
+    )
+    description: str = Field("", description="free text")
+    body: Body = Field(description="the elastic-plastic body (table [body])")
+    counterbody: Counterbody = Field(description="the counter-body (table [counterbody])")
+    surface: Surface = Field(Smooth(), description="surface of body 1, chosen by 'kind'")
+    grid: Grid = Field(description="surface cells and cuboid layers (table [grid])")
+    load_path: tuple[Segment, ...] = Field(
+        min_length=1, description="load path segments ([[load_path]]), each chosen by 'kind'"
+    )
+    solver: SolverOptions = Field(SolverOptions(), description="tolerances and iteration limits")
+    output: Output = Field(Output(), description="what the run file stores")
+
+    # -- derived quantities ------------------------------------------------------------------
+    def canonical_json(self) -> str:
+        """Return the case as JSON with sorted keys and no spaces (non-finite as strings)."""
+        return json.dumps(json.loads(self.model_dump_json()), sort_keys=True, separators=(",", ":"))
+
+    @property
+    def case_id(self) -> str:
+        """First 12 hex digits of the SHA-256 of :meth:`canonical_json`."""
+        return hashlib.sha256(self.canonical_json().encode()).hexdigest()[:12]
+
+    @property
+    def max_load(self) -> float:
+        """Largest target load of the load segments [N]."""
+        return max((s.to for s in self.load_path if isinstance(s, Load)), default=0.0)
+
+    def hertz(self) -> HertzContact:
+        """Hertz estimate at :attr:`max_load`.
+
+        Contact modulus of body and counter-body; effective radius per direction from both
+        bodies' principal radii, and their geometric mean when the two differ.
+        """
+        cb = self.counterbody
+        e_star = composite_modulus(self.body.E, self.body.nu, cb.E, cb.nu or 0.0)
+        r1, r2 = (
+            effective_radius(rb, rc)
+            for rb, rc in zip(self.body.radii, cb.principal_radii, strict=True)
+        )
+        return hertz_contact(self.max_load, math.sqrt(r1 * r2), e_star)
+
+    def window_extent(self) -> tuple[float, float]:
+        """Full size (L1, L2) of the contact window [m]."""
+        if self.grid.extent is not None:
+            return self.grid.extent
+        size = 2.0 * self.grid.half_width * self.hertz().a
+        return (size, size)
+
+    def cell_size(self) -> tuple[float, float]:
+        """Surface cell size (dx1, dx2) [m]."""
+        l1, l2 = self.window_extent()
+        return (l1 / self.grid.nx, l2 / self.grid.ny)
+
+    # -- case-level checks -------------------------------------------------------------------
+    @model_validator(mode="after")
+    def _check_load_path(self) -> Case:
+        current = 0.0
+        for i, seg in enumerate(self.load_path):
+            where = f"load_path.{i}"
+            if i == 0 and not isinstance(seg, Load):
+                raise field_error(f"{where}.kind", 'the first segment must be kind = "load"')
+            if isinstance(seg, Load) and seg.to <= current:
+                raise field_error(
+                    f"{where}.to", f"a load segment must raise the load above {current:g} N"
+                )
+            if isinstance(seg, Unload) and seg.to >= current:
+                raise field_error(
+                    f"{where}.to", f"an unload segment must lower the load below {current:g} N"
+                )
+            if isinstance(seg, Hold | Roll) and current <= 0.0:
+                raise field_error(
+                    f"{where}.kind", f"a {seg.kind} segment needs a positive load; load first"
+                )
+            current = getattr(seg, "to", current)
+        return self
+
+    @model_validator(mode="after")
+    def _check_grid(self) -> Case:
+        a = self._contact_radius()
+        l1, l2 = self.window_extent()
+        if min(l1, l2) < 2.0 * MIN_HALF_WIDTH * a:
+            raise self._window_error(a)
+        for field, n, length in (("grid.nx", self.grid.nx, l1), ("grid.ny", self.grid.ny, l2)):
+            cells = 2.0 * a * n / length
+            if cells < MIN_CELLS_PER_DIAMETER:
+                n_min = math.ceil(MIN_CELLS_PER_DIAMETER * length / (2.0 * a) * (1 - 1e-12))
+                raise field_error(
+                    field,
+                    f"only {cells:.3g} cells across the Hertz contact diameter "
+                    f"2a = {2e6 * a:.4g} µm (need {MIN_CELLS_PER_DIAMETER}); "
+                    f"use {field} >= {n_min} or a smaller window",
+                )
+        return self
+
+    def _contact_radius(self) -> float:
+        """Hertz contact radius at max load, or a field error when it cannot be estimated."""
+        try:
+            a = self.hertz().a
+        except ValueError:
+            raise field_error(
+                "counterbody.radius",
+                "both bodies are flat in some direction; give a finite radius to "
+                "counterbody.radius/radii or body.radii",
+            ) from None
+        except ArithmeticError:
+            a = math.nan
+        if not (0.0 < a < math.inf) or not math.isfinite(max(self.window_extent()) / a):
+            raise field_error(
+                "load_path",
+                f"the Hertz contact radius at the maximum load is not usable (a = {a:g} m); "
+                "check loads, moduli and radii",
+            )
+        return a
+
+    def _window_error(self, a: float) -> PydanticCustomError:
+        where = f"Hertz contact radius a = {1e6 * a:.4g} µm at {self.max_load:g} N"
+        if self.grid.extent is None:
+            return field_error(
+                "grid.half_width",
+                f"the window half-width must be at least {MIN_HALF_WIDTH} a ({where}); "
+                f"use grid.half_width >= {MIN_HALF_WIDTH}",
+            )
+        side = 2.0 * MIN_HALF_WIDTH * a
+        return field_error(
+            "grid.extent",
+            f"the window must be at least {2 * MIN_HALF_WIDTH} a = {1e6 * side:.4g} µm wide "
+            f"({where}); use grid.extent >= [{side:.3e}, {side:.3e}] or remove it",
+        )
+
+
+def _finite_json(value: Any) -> Any:
+    """Replace non-finite floats by the strings pydantic accepts back ("Infinity", ...)."""
+    if isinstance(value, dict):
+        return {k: _finite_json(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_finite_json(v) for v in value]
+    if isinstance(value, float) and not math.isfinite(value):
+        return "NaN" if math.isnan(value) else ("Infinity" if value > 0 else "-Infinity")
+    return value
+
+
+def case_json_schema() -> dict[str, Any]:
+    """Return the JSON schema of :class:`Case`, strictly valid JSON (no bare Infinity)."""
+    return _finite_json(Case.model_json_schema())

@@ -1,0 +1,247 @@
+"""The case schema: shipped configs, derived geometry, identity, and a property test that any
+mangled case either validates or raises ConfigError (never another exception)."""
+
+from __future__ import annotations
+
+import copy
+import hashlib
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from numpy.testing import assert_allclose
+from pydantic import ValidationError
+
+from sacflow.config import case_from_dict, load_case, read_file
+from sacflow.errors import ConfigError
+from sacflow.reference import composite_modulus, effective_radius, hertz_contact
+from sacflow.schema import Case, Counterbody, Roll, case_json_schema
+
+CONFIGS = sorted((Path(__file__).resolve().parents[1] / "configs").glob("*.toml"))
+HERTZ = Path(__file__).resolve().parents[1] / "configs" / "hertz-elastic.toml"
+
+
+def dented_rolling() -> dict[str, Any]:
+    """A case using most of the schema: Swift with depth profile, ellipsoid, dents, rolling."""
+    return {
+        "name": "dented_roll-1",
+        "body": {
+            "E": 219e9,
+            "nu": 0.3,
+            "radii": [24e-3, 24e-3],
+            "hardening": {
+                "law": "swift",
+                "B": 1280e6,
+                "C": 4.0,
+                "n": 0.095,
+                "strain_unit": "microstrain",
+                "depth_profile": {"depth": [0.0, 1e-4], "factor": [1.2, 1.0]},
+            },
+        },
+        "counterbody": {"kind": "elastic", "E": 210e9, "nu": 0.3, "radii": [40e-3, 60e-3]},
+        "surface": {"kind": "dented", "dents": [{"depth": 35e-6, "width": 450e-6, "x1": -2e-3}]},
+        "grid": {"nx": 32, "ny": 32, "nz": 8, "extent": [1.6e-3, 1.6e-3]},
+        "load_path": [
+            {"kind": "load", "to": 1318.0, "increments": 4},
+            {"kind": "hold"},
+            {"kind": "roll", "distance": 4e-3, "steps": 10, "direction": [3.0, 4.0]},
+            {"kind": "unload", "increments": 2},
+        ],
+        "solver": {"acceleration": "none", "fft_threads": 2},
+        "output": {"fields": ["load", "pressure", "residual_stress"], "volume_every": 5},
+    }
+
+
+def measured_tabular(surface_file: Path) -> dict[str, Any]:
+    return {
+        "name": "measured",
+        "body": {
+            "E": 200e9,
+            "nu": 0.29,
+            "radii": [10e-3, math.inf],
+            "hardening": {
+                "law": "tabular",
+                "plastic_strain": [0.0, 0.01, 0.1],
+                "stress": [1.5e9, 1.6e9, 1.6e9],
+            },
+        },
+        "counterbody": {"kind": "rigid", "radius": 10e-3},
+        "surface": {"kind": "measured", "path": str(surface_file), "format": "text"},
+        "grid": {"nx": 16, "ny": 16, "nz": 4, "half_width": 2.0},
+        "load_path": [{"kind": "load", "to": 100.0, "increments": 2}],
+    }
+
+
+@pytest.fixture(scope="module")
+def surface_file(tmp_path_factory) -> Path:
+    path = tmp_path_factory.mktemp("surface") / "surface.txt"
+    path.write_text("".join(f"{x} {y} 0\n" for x in (-1e-3, 0.0, 1e-3) for y in (-1e-3, 1e-3)))
+    return path
+
+
+@pytest.fixture(scope="module")
+def bases(surface_file) -> list[dict[str, Any]]:
+    return [read_file(HERTZ), dented_rolling(), measured_tabular(surface_file)]
+
+
+# --------------------------------------------------------------------------- shipped configs
+@pytest.mark.parametrize("config", CONFIGS, ids=[c.stem for c in CONFIGS])
+def test_every_shipped_config_validates(config):
+    case = load_case(config)
+    assert case.name == config.stem, "a config's name is its file name"
+
+
+def test_hertz_config_reference_values():
+    hertz = load_case(HERTZ).hertz()
+    assert_allclose(hertz.a, 6.053e-6, rtol=1e-3, err_msg="contact radius a")
+    assert_allclose(hertz.p0, 8.470e9, rtol=1e-3, err_msg="peak pressure p0")
+    assert_allclose(hertz.approach, 0.3490e-6, rtol=1e-3, err_msg="approach")
+
+
+def test_all_bases_validate(bases):
+    for data in bases:
+        case_from_dict(data)
+
+
+# --------------------------------------------------------------------------- derived geometry
+def test_window_and_cell_size():
+    case = load_case(HERTZ)
+    a = case.hertz().a
+    assert_allclose(case.window_extent(), (3 * a, 3 * a), rtol=1e-12)
+    assert_allclose(case.cell_size(), (3 * a / 128, 3 * a / 128), rtol=1e-12)
+    data = dented_rolling()
+    case = case_from_dict(data)
+    assert case.window_extent() == (1.6e-3, 1.6e-3)
+    assert_allclose(case.cell_size(), (5e-5, 5e-5), rtol=1e-12)
+
+
+def test_hertz_uses_both_bodies():
+    case = case_from_dict(dented_rolling())
+    e_star = composite_modulus(219e9, 0.3, 210e9, 0.3)
+    r1, r2 = effective_radius(24e-3, 40e-3), effective_radius(24e-3, 60e-3)
+    expected = hertz_contact(1318.0, math.sqrt(r1 * r2), e_star)
+    assert_allclose(case.hertz().a, expected.a, rtol=1e-12)
+    assert_allclose(case.hertz().p0, expected.p0, rtol=1e-12)
+    assert case.max_load == 1318.0
+    assert case.counterbody.principal_radii == (40e-3, 60e-3)
+    assert Counterbody(kind="rigid", radius=1.0).principal_radii == (1.0, 1.0)
+
+
+def test_roll_direction_is_normalised():
+    case = case_from_dict(dented_rolling())
+    roll = case.load_path[2]
+    assert isinstance(roll, Roll)
+    assert_allclose(roll.direction, (0.6, 0.8), rtol=1e-15)
+
+
+# --------------------------------------------------------------------------- identity
+def test_case_is_frozen_and_hashable():
+    case = load_case(HERTZ)
+    again = load_case(HERTZ)
+    assert case == again and hash(case) == hash(again)
+    assert len({case, again}) == 1
+    with pytest.raises(ValidationError):
+        case.name = "other"  # type: ignore[misc]
+
+
+def test_case_id_is_stable():
+    data = read_file(HERTZ)
+    case = case_from_dict(data)
+    assert len(case.case_id) == 12 and int(case.case_id, 16) >= 0
+    assert case.case_id == hashlib.sha256(case.canonical_json().encode()).hexdigest()[:12]
+    reordered = dict(reversed(list(copy.deepcopy(data).items())))
+    reordered["load_path"][0]["to"] = 6.5e-1
+    assert case_from_dict(reordered).case_id == case.case_id, "key order and spelling"
+    assert Case.model_validate_json(case.canonical_json()).case_id == case.case_id
+    data["grid"]["nx"] = 64
+    assert case_from_dict(data).case_id != case.case_id
+    canonical = case.canonical_json()
+    assert canonical == json.dumps(json.loads(canonical), sort_keys=True, separators=(",", ":"))
+
+
+def test_model_copy_update():
+    case = load_case(HERTZ)
+    finer = case.model_copy(update={"grid": case.grid.model_copy(update={"nx": 256})})
+    assert finer.grid.nx == 256 and case.grid.nx == 128
+    assert finer.case_id != case.case_id
+    assert case_from_dict(json.loads(finer.canonical_json())) == finer
+
+
+def test_json_schema_is_strict_json():
+    schema = case_json_schema()
+    text = json.dumps(schema, allow_nan=False)
+    assert "Case" in text and set(schema["properties"]) >= {"body", "grid", "load_path"}
+
+
+# --------------------------------------------------------------------------- property test
+VALUES = st.one_of(
+    st.none(),
+    st.booleans(),
+    st.integers(min_value=-(2**70), max_value=2**70),
+    st.floats(),
+    st.sampled_from([0, -1, 1e-300, 1e300, math.inf, -math.inf, math.nan, 0.5, -0.999, 8, 7]),
+    st.text(max_size=8),
+    st.lists(st.one_of(st.floats(), st.integers(-5, 5)), max_size=3),
+    st.dictionaries(st.text(max_size=4), st.integers(), max_size=2),
+)
+
+
+def _nodes(node: Any, path: tuple = ()) -> list[tuple]:
+    items = (
+        node.items()
+        if isinstance(node, dict)
+        else enumerate(node)
+        if isinstance(node, list)
+        else []
+    )
+    found = []
+    for key, child in items:
+        found.append((*path, key))
+        found.extend(_nodes(child, (*path, key)))
+    return found
+
+
+def _get(node: Any, path: tuple) -> Any:
+    for key in path:
+        node = node[key]
+    return node
+
+
+def _perturb(data: dict[str, Any], draw: Any) -> dict[str, Any]:
+    data = copy.deepcopy(data)
+    for _ in range(draw(st.integers(1, 3))):
+        path = draw(st.sampled_from(_nodes(data) or [()]))
+        action = draw(st.sampled_from(["replace", "drop", "extra"]))
+        if not path:
+            data[draw(st.text(max_size=6))] = draw(VALUES)
+            continue
+        parent, key = _get(data, path[:-1]), path[-1]
+        if action == "replace":
+            parent[key] = draw(VALUES)
+        elif action == "drop":
+            del parent[key]
+        elif isinstance(parent[key], dict):
+            parent[key][draw(st.text(max_size=6))] = draw(VALUES)
+        else:
+            parent[key] = draw(VALUES)
+    return data
+
+
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(data=st.data())
+def test_any_mangled_case_validates_or_raises_config_error(bases, data):
+    mangled = _perturb(data.draw(st.sampled_from(bases)), data.draw)
+    try:
+        case = case_from_dict(mangled, source="mangled.toml")
+    except ConfigError as exc:
+        message = str(exc)
+        assert message.startswith("mangled.toml: ")
+        assert len(message.splitlines()) < 25
+        return
+    assert hash(case) == hash(Case.model_validate_json(case.canonical_json()))
+    assert Case.model_validate_json(case.canonical_json()) == case
+    assert len(case.case_id) == 12
