@@ -21,7 +21,12 @@ from sacflow.errors import ConfigError
 from sacflow.reference import composite_modulus, effective_radius, hertz_contact
 from sacflow.schema import Case, Counterbody, Roll, case_json_schema
 
-CONFIGS = sorted((Path(__file__).resolve().parents[1] / "configs").glob("*.toml"))
+# Every case config shipped in configs/ (campaign files, named *campaign*, are not cases).
+CONFIGS = sorted(
+    p
+    for p in (Path(__file__).resolve().parents[1] / "configs").glob("*.toml")
+    if "campaign" not in p.stem
+)
 HERTZ = Path(__file__).resolve().parents[1] / "configs" / "hertz-elastic.toml"
 
 
@@ -100,6 +105,16 @@ def test_hertz_config_reference_values():
     assert_allclose(hertz.a, 6.053e-6, rtol=1e-3, err_msg="contact radius a")
     assert_allclose(hertz.p0, 8.470e9, rtol=1e-3, err_msg="peak pressure p0")
     assert_allclose(hertz.approach, 0.3490e-6, rtol=1e-3, err_msg="approach")
+
+
+def test_case_from_json_file(tmp_path):
+    case = load_case(HERTZ)
+    path = tmp_path / "case.json"
+    path.write_text(case.canonical_json())  # as stored in a run file's "case" attribute
+    assert load_case(path) == case
+    path.write_text(case.canonical_json()[:-1])
+    with pytest.raises(ConfigError, match="JSON syntax error"):
+        load_case(path)
 
 
 def test_all_bases_validate(bases):

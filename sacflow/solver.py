@@ -1,0 +1,405 @@
+"""Incremental elastic-plastic contact solver (seed §1.6–1.7, Figs. 4–5). No I/O, no xarray.
+
+Per load increment the solver finds the plastic strain increment ``Δεp`` that is a fixed point of
+
+    Δεp = R( σ^pr(p) + σ^r(εp_old + Δεp) + 2μ Δεp ),
+    p   = elastic contact on the gap  h_geometry + u3^r(εp_old + Δεp),
+
+where ``R`` is the fully implicit J2 radial return (:func:`sacflow.plasticity.radial_return`),
+``σ^pr`` the stress of the contact pressure, ``σ^r`` the residual stress and ``u3^r`` the
+residual surface displacement of the plastic strain (:mod:`sacflow.kernels.eigenstrain`). The
+seed nests two loops (contact ↔ plastic strain); here both are one fixed point accelerated by
+Anderson mixing (:mod:`sacflow.anderson`), the contact being re-solved (warm-started) at every
+evaluation. At convergence the seed's two criteria hold: the plastic strain increment and the
+residual displacement increment have stopped changing, and von Mises = σ_Y on plastic points.
+
+Load paths: ``load`` / ``unload`` segments change the normal load in equal increments, ``hold``
+repeats it; ``roll`` moves the load over the body-fixed grid by whole cells (the plastic strain,
+hardening and residual fields stay with the body; the curvature term of the gap moves with the
+load, dents and measured surfaces stay with the body).
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Iterator
+from dataclasses import dataclass
+
+import numpy as np
+
+from sacflow.anderson import AndersonMixer
+from sacflow.contact import ContactResult, solve_contact
+from sacflow.errors import ConvergenceError, SacflowError
+from sacflow.geometry import curvature_gap, features_gap
+from sacflow.kernels.eigenstrain import HalfSpaceEigenstrain
+from sacflow.kernels.fft import Convolution
+from sacflow.kernels.surface import rectangle_displacement, rectangle_stress
+from sacflow.plasticity import Elastic, hardening_from_schema, radial_return, von_mises
+from sacflow.reference import composite_modulus, hertz_axis_stress
+from sacflow.state import GridCoords, State
+
+__all__ = ["Simulation", "StepPlan", "plan_steps"]
+
+
+@dataclass(frozen=True)
+class StepPlan:
+    """One increment of the load path: segment index, load [N] and load position [m]."""
+
+    segment: int
+    load: float
+    position: tuple[float, float]
+
+
+def plan_steps(load_path, cell: tuple[float, float]) -> list[StepPlan]:
+    """Expand load-path segments into increments (roll steps snapped to whole cells)."""
+    steps: list[StepPlan] = []
+    load, pos = 0.0, (0.0, 0.0)
+    for index, seg in enumerate(load_path):
+        if seg.kind in ("load", "unload"):
+            start = load
+            for k in range(1, seg.increments + 1):
+                load = start + (seg.to - start) * k / seg.increments
+                steps.append(StepPlan(index, load, pos))
+        elif seg.kind == "hold":
+            steps.extend(StepPlan(index, load, pos) for _ in range(seg.increments))
+        elif seg.kind == "roll":
+            start = pos
+            for k in range(1, seg.steps + 1):
+                frac = k / seg.steps
+                target = (
+                    start[0] + seg.distance * seg.direction[0] * frac,
+                    start[1] + seg.distance * seg.direction[1] * frac,
+                )
+                pos = (round(target[0] / cell[0]) * cell[0], round(target[1] / cell[1]) * cell[1])
+                steps.append(StepPlan(index, load, pos))
+    return steps
+
+
+def _auto_depth(case, law, a: float, p0: float) -> float:
+    """Depth of the cuboid box: where the Hertz von Mises stress at max load falls below yield.
+
+    Uses the on-axis Hertz field (the maximum of von Mises is on the axis for ν ≈ 0.3) at the
+    maximum load, the initial yield stress, and the solver's ``plastic_margin``; never less than
+    the contact radius. Elastic bodies get ``2 a`` (the stress field that is stored).
+    """
+    if isinstance(law, Elastic):
+        return 2.0 * a
+    z = np.linspace(1e-3, 6.0, 3000) * a
+    s_r, s_z = hertz_axis_stress(z, a, p0, case.body.nu)
+    vm = np.abs(s_r - s_z)
+    sy = law.yield_stress(np.zeros_like(z), z)
+    margin = case.solver.plastic_margin
+    above = np.nonzero(vm > sy * (1.0 - margin))[0]
+    if above.size == 0:
+        return a
+    return max(a, float(z[above[-1]]) * (1.0 + margin))
+
+
+class Simulation:
+    """A case turned into grids and operators, run increment by increment.
+
+    Attributes
+    ----------
+    coords : GridCoords
+        Body-fixed cell centres (x1, x2 surface; x3 cuboid layers).
+    total_steps : int
+        Number of increments of the load path.
+    """
+
+    def __init__(self, case):
+        self.case = case
+        body, cb = case.body, case.counterbody
+        self.law = hardening_from_schema(body.hardening)
+        self.plastic = not isinstance(self.law, Elastic)
+        self.E, self.nu = float(body.E), float(body.nu)
+        self.mu = self.E / (2.0 * (1.0 + self.nu))
+        if cb.kind == "elastic":
+            self.e_star = composite_modulus(self.E, self.nu, cb.E, cb.nu)
+        else:
+            self.e_star = composite_modulus(self.E, self.nu)
+        rc = cb.principal_radii
+        self.radii = tuple(
+            1.0 / sum(1.0 / r for r in (rb, rk) if math.isfinite(r)) for rb, rk in zip(
+                body.radii, rc, strict=True)
+        )
+        hertz = case.hertz()
+        self.hertz = hertz
+        self.cell = case.cell_size()
+        self.steps = plan_steps(case.load_path, self.cell)
+        self.total_steps = len(self.steps)
+        # Body grid: the contact window swept along the rolled track.
+        nx, ny = case.grid.nx, case.grid.ny
+        pos = np.array([s.position for s in self.steps] + [(0.0, 0.0)])
+        cells = np.rint(pos / np.array(self.cell)).astype(int)
+        lo, hi = cells.min(axis=0), cells.max(axis=0)
+        self.window = (nx, ny)
+        self.body_shape = (nx + hi[0] - lo[0], ny + hi[1] - lo[1])
+        self._origin_cells = -lo  # body index of the window corner when the load is at 0
+        dx1, dx2 = self.cell
+        x1 = (np.arange(self.body_shape[0]) + lo[0] - nx / 2 + 0.5) * dx1
+        x2 = (np.arange(self.body_shape[1]) + lo[1] - ny / 2 + 0.5) * dx2
+        depth = case.grid.depth or _auto_depth(case, self.law, hertz.a, hertz.p0)
+        self.nz = case.grid.nz
+        self.dz = depth / self.nz
+        x3 = (np.arange(self.nz) + 0.5) * self.dz
+        self.coords = GridCoords(x1, x2, x3)
+        self.threads = case.solver.fft_threads
+        self._heights = _measured_heights(case)
+        self._build_operators()
+        shape = (*self.body_shape, self.nz)
+        self.plastic_strain = np.zeros((*shape, 6))
+        self.eqps = np.zeros(shape)
+        self.residual_displacement = np.zeros(self.body_shape)
+        self.residual_stress = np.zeros((*shape, 6))
+        self._pressure: np.ndarray | None = None
+        self._h_offset: float | None = None
+
+    # ------------------------------------------------------------------ operators
+    def _build_operators(self) -> None:
+        """Kernel spectra for the window and the cuboid box (built once, reused every step)."""
+        dx1, dx2 = self.cell
+        h1, h2 = dx1 / 2, dx2 / 2
+        e_star, nu, window = self.e_star, self.nu, self.window
+
+        def love(d1, d2):
+            return (rectangle_displacement(d1 * dx1, d2 * dx2, h1, h2) / (np.pi * e_star))[
+                None, None
+            ]
+
+        self.compliance = Convolution(love, window, window, threads=self.threads)
+        self.nz = self.coords.x3.size if hasattr(self, "coords") else self.nz
+        z = (np.arange(self.nz) + 0.5) * self.dz
+
+        def stresses(d1, d2):
+            s = rectangle_stress(d1 * dx1, d2 * dx2, z[:, None, None], h1, h2, nu)
+            s = np.moveaxis(s, -1, 1)  # (nz, 6, L1, L2)
+            return s.reshape(6 * self.nz, 1, *s.shape[2:])
+
+        # Pressure on the window -> stress on the whole body grid (offset: window corner = 0).
+        self._stress_ops: dict[tuple[int, int], Convolution] = {}
+        self._stress_coefficients = stresses
+        self.eigen = (
+            HalfSpaceEigenstrain(
+                (*self.body_shape, self.nz), (dx1, dx2, self.dz), self.E, self.nu,
+                threads=self.threads,
+            )
+            if self.plastic
+            else None
+        )
+
+    def _pressure_stress(self, pressure: np.ndarray, corner: tuple[int, int]) -> np.ndarray:
+        """Stress [Pa] on the body grid, (nbx, nby, nz, 6), of the window pressure at ``corner``."""
+        op = self._stress_ops.get(corner)
+        if op is None:
+            op = Convolution(
+                self._stress_coefficients, self.window, self.body_shape,
+                offset=(-corner[0], -corner[1]), threads=self.threads,
+            )
+            self._stress_ops[corner] = op
+        out = op(pressure[None])  # (6 nz, nbx, nby)
+        out = out.reshape(self.nz, 6, *self.body_shape)
+        return np.moveaxis(out, (0, 1), (2, 3))
+
+    # ------------------------------------------------------------------ geometry
+    def _window_slices(self, position: tuple[float, float]) -> tuple[tuple[int, int], tuple]:
+        c = np.rint(np.array(position) / np.array(self.cell)).astype(int) + self._origin_cells
+        corner = (int(c[0]), int(c[1]))
+        sl = (slice(corner[0], corner[0] + self.window[0]),
+              slice(corner[1], corner[1] + self.window[1]))
+        return corner, sl
+
+    def _geometry(self, position: tuple[float, float], sl) -> np.ndarray:
+        """Initial gap on the window (curvature about the load point + body-fixed features)."""
+        x1 = self.coords.x1[sl[0]][:, None]
+        x2 = self.coords.x2[sl[1]][None, :]
+        dents = getattr(self.case.surface, "dents", ())
+        h = curvature_gap(x1, x2, position[0], position[1], self.radii)
+        return h + features_gap(x1, x2, dents, self._heights)
+
+    # ------------------------------------------------------------------ one increment
+    def _contact(self, h: np.ndarray, load: float, step: int) -> ContactResult:
+        opts = self.case.solver
+        return solve_contact(
+            h, self.compliance, self.cell[0] * self.cell[1], load=load,
+            initial_pressure=self._pressure, tol=opts.contact_tolerance,
+            max_iter=opts.contact_max_iterations, step=step,
+        )
+
+    def _increment(self, step: int, plan: StepPlan):
+        """Solve one increment; returns (contact, total stress, Δεp, Δp, iterations)."""
+        opts = self.case.solver
+        corner, sl = self._window_slices(plan.position)
+        geometry = self._geometry(plan.position, sl)
+        if self._h_offset is None:
+            self._h_offset = float(geometry.min())
+        geometry = geometry - self._h_offset
+        contact_iterations = 0
+
+        def solve(u_r: np.ndarray) -> ContactResult:
+            nonlocal contact_iterations
+            result = self._contact(geometry + u_r[sl], plan.load, step)
+            contact_iterations += result.iterations
+            self._pressure = result.pressure
+            return result
+
+        if not self.plastic:
+            result = solve(self.residual_displacement)
+            return (corner, sl, geometry, result, self.residual_stress, None, None,
+                    contact_iterations, 0)
+        shape = self.plastic_strain.shape
+        depth = self.coords.x3
+        mixer = AndersonMixer(opts.anderson_depth if opts.acceleration == "anderson" else 0)
+        x = np.zeros(shape)
+        tol = opts.plasticity_tolerance
+        floor = 1e-14
+        best = (np.inf, None)
+        u_prev = None
+        for iteration in range(1, opts.plasticity_max_iterations + 1):
+            eps = self.plastic_strain + x
+            sig_r, u_box = self.eigen.residual_stress(eps, with_displacement=True)
+            result = solve(u_box)
+            sig = self._pressure_stress(result.pressure, corner) + sig_r
+            trial = sig + 2.0 * self.mu * x
+            ret = radial_return(trial, self.eqps, self.law, self.mu, depth=depth)
+            gx = ret.plastic_strain_increment
+            scale = max(np.abs(gx).max(), np.abs(x).max(), floor)
+            change = float(np.abs(gx - x).max() / scale)
+            du = (
+                float(np.abs(u_box - u_prev).max() / max(np.abs(u_box).max(), floor))
+                if u_prev is not None else np.inf
+            )
+            u_prev = u_box
+            if change < best[0]:
+                best = (change, None)
+            if change < tol and (du < opts.coupling_tolerance or np.abs(gx).max() == 0.0):
+                return (corner, sl, geometry, result, sig_r, sig, (gx, ret.eqps_increment),
+                        contact_iterations, iteration)
+            x = mixer.step(x.ravel(), gx.ravel()).reshape(shape)
+        raise ConvergenceError("plasticity", step=step, residual=best[0], tolerance=tol,
+                               iterations=opts.plasticity_max_iterations)
+
+    # ------------------------------------------------------------------ driver
+    def run(self) -> Iterator[State]:
+        """Yield one :class:`~sacflow.state.State` per increment of the load path.
+
+        Raises
+        ------
+        ConvergenceError
+            When an increment does not converge (the states already yielded stay valid).
+        """
+        every = self.case.output.volume_every
+        for step, plan in enumerate(self.steps):
+            if plan.load <= 0.0:
+                self._pressure = None
+            (corner, sl, geometry, result, sig_r, sig, update, n_contact,
+             n_plastic) = self._increment(step, plan)
+            if update is not None:
+                deps, dp = update
+                self.plastic_strain += deps
+                self.eqps += dp
+                self.residual_stress = sig_r
+                # residual fields of the converged plastic strain
+                self.residual_stress, self.residual_displacement = self.eigen.residual_stress(
+                    self.plastic_strain, with_displacement=True)
+                self._check_box(step)
+            volume = {}
+            if step % every == every - 1 or step == self.total_steps - 1:
+                volume = self._volume_fields(result, corner)
+            yield self._state(step, plan, result, geometry, sl, n_contact, n_plastic, volume)
+
+    def _check_box(self, step: int) -> None:
+        """Warn when plastic strain reaches the bottom or the sides of the cuboid box."""
+        plastic = self.eqps > 0.0
+        if plastic[..., -1].any():
+            warnings.warn(
+                f"step {step}: plastic strain reached the bottom of the cuboid box "
+                f"(depth {self.coords.x3[-1] + self.dz / 2:.3e} m); set a deeper grid.depth",
+                RuntimeWarning, stacklevel=2,
+            )
+        if plastic[[0, -1]].any() or plastic[:, [0, -1]].any():
+            warnings.warn(
+                f"step {step}: plastic strain reached the side of the grid; "
+                "increase grid.half_width", RuntimeWarning, stacklevel=2,
+            )
+
+    def _volume_fields(self, result: ContactResult, corner) -> dict[str, np.ndarray]:
+        stress = self._pressure_stress(result.pressure, corner) + self.residual_stress
+        if self.plastic:
+            yield_stress = self.law.yield_stress(self.eqps, self.coords.x3)
+        else:
+            yield_stress = np.full(self.eqps.shape, np.inf)
+        return {
+            "plastic_strain": self.plastic_strain.copy(),
+            "equivalent_plastic_strain": self.eqps.copy(),
+            "residual_stress": self.residual_stress.copy(),
+            "stress": stress,
+            "von_mises": von_mises(stress),
+            "yield_stress": np.asarray(yield_stress, dtype=float),
+        }
+
+    def _state(self, step, plan, result, geometry, sl, n_contact, n_plastic, volume) -> State:
+        shape = self.body_shape
+        pressure = np.zeros(shape)
+        pressure[sl] = result.pressure
+        gap = np.full(shape, np.nan)
+        gap[sl] = result.gap
+        geom = np.full(shape, np.nan)
+        geom[sl] = geometry
+        elastic_share = self.e_star * (1.0 - self.nu**2) / self.E
+        surface_displacement = self.residual_displacement.copy()
+        surface_displacement[sl] += elastic_share * result.displacement
+        cell_area = self.cell[0] * self.cell[1]
+        return State(
+            step=step,
+            segment=plan.segment,
+            load=float(plan.load),
+            approach=float(result.approach),
+            load_x1=float(plan.position[0]),
+            load_x2=float(plan.position[1]),
+            contact_area=float(np.count_nonzero(result.pressure > 0) * cell_area),
+            max_pressure=float(result.pressure.max(initial=0.0)),
+            contact_iterations=int(n_contact),
+            plasticity_iterations=int(n_plastic),
+            converged=True,
+            surface={
+                "pressure": pressure,
+                "gap": gap,
+                "geometry": geom,
+                "residual_displacement": self.residual_displacement.copy(),
+                "surface_displacement": surface_displacement,
+            },
+            volume=volume,
+        )
+
+
+def _measured_heights(case):
+    """Height function of a measured surface (linear interpolation), or None.
+
+    The file is read once here, at set-up (through :mod:`sacflow.store`, the only module that
+    knows netCDF); the numerical core only calls the returned function. Points outside the
+    measured grid raise :class:`~sacflow.errors.SacflowError` naming the uncovered extent.
+    """
+    if getattr(case.surface, "kind", "smooth") != "measured":
+        return None
+    from scipy.interpolate import RegularGridInterpolator
+
+    from sacflow.store import read_measured_surface
+
+    surf = case.surface
+    data = read_measured_surface(surf.path, surf.format, surf.variable)
+    interp = RegularGridInterpolator((data.x1, data.x2), data.height, bounds_error=False)
+
+    def heights(x1: np.ndarray, x2: np.ndarray) -> np.ndarray:
+        X1, X2 = np.broadcast_arrays(x1, x2)
+        out = interp(np.stack([X1.ravel(), X2.ravel()], axis=-1)).reshape(X1.shape)
+        if np.isnan(out).any():
+            raise SacflowError(
+                f"surface.path: the measured surface covers x1 in [{data.x1[0]:.4g}, "
+                f"{data.x1[-1]:.4g}] m, x2 in [{data.x2[0]:.4g}, {data.x2[-1]:.4g}] m but the "
+                f"grid needs x1 in [{X1.min():.4g}, {X1.max():.4g}], x2 in [{X2.min():.4g}, "
+                f"{X2.max():.4g}] m: measure a larger area or shorten the track"
+            )
+        return out
+
+    return heights

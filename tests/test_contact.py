@@ -1,0 +1,132 @@
+"""Elastic contact (Polonsky–Keer + DC-FFT) against Hertz, and the DC-FFT operator itself."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from sacflow.contact import solve_contact
+from sacflow.errors import ConvergenceError
+from sacflow.kernels.fft import Convolution
+from sacflow.kernels.surface import rectangle_displacement
+from sacflow.reference import composite_modulus, hertz_contact, hertz_pressure
+
+E, NU, R, W = 210e9, 0.3, 105e-6, 0.65
+
+
+def hertz_problem(n: int, half_width: float = 1.5, e_star: float | None = None, radius=R, load=W):
+    """Sphere-on-flat on an n×n window of ±half_width·a: (h, compliance, cell area, x, hertz)."""
+    e_star = e_star or composite_modulus(E, NU)
+    hz = hertz_contact(load, radius, e_star)
+    dx = 2 * half_width * hz.a / n
+    x = (np.arange(n) - n / 2 + 0.5) * dx
+    X, Y = np.meshgrid(x, x, indexing="ij")
+
+    def love(d1, d2):
+        return (rectangle_displacement(d1 * dx, d2 * dx, dx / 2, dx / 2) / (np.pi * e_star))[
+            None, None
+        ]
+
+    conv = Convolution(love, (n, n), (n, n))
+    return (X**2 + Y**2) / (2 * radius), conv, dx * dx, (X, Y), hz
+
+
+def test_dcfft_equals_direct_summation():
+    rng = np.random.default_rng(0)
+
+    def kernel(d1, d2):
+        return np.stack([
+            np.stack([1.0 / (1 + (d1 + 0.3) ** 2 + 2 * d2**2), np.sin(d1) + 0.1 * d2]),
+        ])
+
+    x = rng.random((2, 7, 5))
+    for offset, out_shape in (((0, 0), (7, 5)), ((2, -1), (4, 9)), ((-3, 2), (6, 3))):
+        conv = Convolution(kernel, (7, 5), out_shape, offset)
+        i, j, p, q = np.meshgrid(*(np.arange(n) for n in (*out_shape, 7, 5)), indexing="ij")
+        k = kernel(i + offset[0] - p, j + offset[1] - q)  # (1, 2, o1, o2, 7, 5)
+        direct = np.einsum("cdijpq,dpq->cij", k, x)
+        assert_allclose(conv(x), direct, rtol=0, atol=1e-13 * np.abs(direct).max(),
+                        err_msg=f"DC-FFT differs from direct summation, offset {offset}")
+
+
+def test_hertz_at_64_cells_across():
+    # 96 cells over ±1.5 a: 64 cells across the contact diameter.
+    h, conv, area, (X, Y), hz = hertz_problem(96)
+    res = solve_contact(h, conv, area, load=W, tol=1e-10)
+    dx = np.sqrt(area)
+    assert_allclose(res.pressure.max(), hz.p0, rtol=5e-3, err_msg="p0 vs Hertz")
+    assert_allclose(res.approach, hz.approach, rtol=3e-3, err_msg="approach vs Hertz")
+    assert_allclose(res.load, W, rtol=1e-10, err_msg="load balance")
+    radius = np.sqrt(np.count_nonzero(res.pressure > 0) * area / np.pi)
+    assert abs(radius - hz.a) < dx, f"contact radius {radius} vs Hertz {hz.a} (cell {dx})"
+    # Pointwise profile error on cells not cut by the contact circle (cells straddling r = a hold
+    # a partial contact that a cell-constant pressure cannot resolve; reported separately).
+    r = np.hypot(X, Y)
+    error = np.abs(res.pressure - hertz_pressure(r, hz.a, hz.p0)) / hz.p0
+    uncut = np.abs(r - hz.a) > dx / np.sqrt(2)
+    assert error[uncut].max() < 1e-2, f"profile error {error[uncut].max():.3e} of p0"
+    assert res.error < 1e-9, f"complementarity residual {res.error:.2e}"
+
+
+def test_hertz_convergence_rate():
+    errors_p0, errors_l2 = [], []
+    sizes = (48, 96, 192)
+    for n in sizes:
+        h, conv, area, (X, Y), hz = hertz_problem(n)
+        res = solve_contact(h, conv, area, load=W, tol=1e-11)
+        errors_p0.append(abs(res.pressure.max() / hz.p0 - 1))
+        exact = hertz_pressure(np.hypot(X, Y), hz.a, hz.p0)
+        errors_l2.append(np.sqrt(np.mean((res.pressure - exact) ** 2)) / hz.p0)
+    slope_p0 = np.polyfit(np.log(sizes), np.log(errors_p0), 1)[0]
+    slope_l2 = np.polyfit(np.log(sizes), np.log(errors_l2), 1)[0]
+    assert slope_p0 < -1.7, f"p0 error should fall ~ h², slope {slope_p0:.2f} ({errors_p0})"
+    assert slope_l2 < -0.8, f"L2 pressure error should fall ~ h, slope {slope_l2:.2f}"
+
+
+def test_approach_controlled_matches_load_controlled():
+    h, conv, area, _, hz = hertz_problem(64)
+    by_load = solve_contact(h, conv, area, load=W)
+    by_approach = solve_contact(h, conv, area, approach=by_load.approach)
+    assert_allclose(by_approach.load, W, rtol=1e-7, err_msg="load from approach control")
+    assert_allclose(by_approach.pressure, by_load.pressure, atol=1e-6 * hz.p0,
+                    err_msg="pressure, approach vs load control")
+
+
+def test_elastic_counterbody_uses_composite_modulus():
+    e_star = composite_modulus(E, NU, 1140e9, 0.07)
+    h, conv, area, _, hz = hertz_problem(96, e_star=e_star)
+    res = solve_contact(h, conv, area, load=W)
+    assert_allclose(hz.a, 6.44e-6, rtol=2e-3, err_msg="diamond punch Hertz radius (DESIGN §5)")
+    assert_allclose(res.pressure.max(), hz.p0, rtol=5e-3, err_msg="p0, elastic punch")
+
+
+def test_unit_neutrality():
+    """Rescale E, W and lengths randomly: dimensionless pressure and gap are unchanged."""
+    rng = np.random.default_rng(3)
+    h, conv, area, _, hz = hertz_problem(48)
+    base = solve_contact(h, conv, area, load=W)
+    for _ in range(2):
+        fe, fl, fw = 10 ** rng.uniform(-2, 2, 3)
+        e_star = composite_modulus(E, NU) * fe
+        h2, conv2, area2, _, hz2 = hertz_problem(48, e_star=e_star, radius=R * fl, load=W * fw)
+        res = solve_contact(h2, conv2, area2, load=W * fw)
+        assert_allclose(res.pressure / hz2.p0, base.pressure / hz.p0, atol=1e-8,
+                        err_msg="pressure/p0 under rescaling")
+        assert_allclose(res.approach / hz2.approach, base.approach / hz.approach, rtol=1e-8,
+                        err_msg="approach under rescaling")
+
+
+def test_symmetry_and_no_nan():
+    h, conv, area, _, _ = hertz_problem(40)
+    p = solve_contact(h, conv, area, load=W).pressure
+    assert np.isfinite(p).all()
+    assert_allclose(p, p[::-1], atol=1e-9 * p.max(), err_msg="x1 mirror symmetry")
+    assert_allclose(p, p.T, atol=1e-9 * p.max(), err_msg="x1<->x2 symmetry")
+
+
+def test_non_convergence_raises_named_error():
+    h, conv, area, _, _ = hertz_problem(32)
+    with pytest.raises(ConvergenceError, match="contact.*step 7") as info:
+        solve_contact(h, conv, area, load=W, tol=1e-14, max_iter=3, step=7)
+    assert info.value.step == 7 and info.value.residual > 1e-14
