@@ -1,11 +1,24 @@
-"""sacflow."""
+"""sacflow: three-dimensional semi-analytical elastic-plastic contact code (Jacq et al., ASME J.
+Tribol. 124 (2002) 653) and the xarray/netCDF experiment pipeline around it.
+
+Notebook API: :func:`load_case`, :func:`run`, :func:`open_run`, and the eigenstrain operators
+:func:`residual_stress`, :func:`residual_displacement`.
+"""
 
 from __future__ import annotations
 
 from importlib import import_module
 from typing import Any
 
-__all__ = ["ConfigError", "load_case", "open_run"]
+__all__ = [
+    "ConfigError",
+    "load_case",
+    "open_run",
+    "residual_displacement",
+    "residual_stress",
+    "run",
+]
+__version__ = "0.1.0"
 
 # Public names and the module defining each, imported on first use so that ``import sacflow``
 # (and ``sacflow validate``) stays fast: xarray and netCDF load only for ``open_run``.
@@ -13,6 +26,9 @@ _EXPORTS = {
     "ConfigError": "sacflow.errors",
     "load_case": "sacflow.config",
     "open_run": "sacflow.store",
+    "residual_stress": "sacflow.kernels.eigenstrain",
+    "residual_displacement": "sacflow.kernels.eigenstrain",
+    "run": "sacflow.runner",
 }
 
 

@@ -12,6 +12,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+from sacflow.compare.command import add_compare_command
 from sacflow.config import load_case
 from sacflow.errors import ConfigError, SacflowError
 from sacflow.schema import Case, case_json_schema
@@ -55,6 +56,20 @@ def _parser() -> argparse.ArgumentParser:
     validate = commands.add_parser("validate", help="check cases and print their Hertz scales")
     _add_case_arguments(validate)
     validate.set_defaults(handler=_validate)
+
+    campaign = commands.add_parser("campaign", help="run a parametric study with dask")
+    campaign.add_argument("campaign", type=Path, metavar="CAMPAIGN", help="campaign file")
+    campaign.add_argument("--out", type=Path, default=Path("runs"), help="output folder (runs/)")
+    campaign.add_argument("--workers", type=int, metavar="N", help="local workers (default: cores)")
+    campaign.add_argument("--scheduler", metavar="ADDRESS", help="dask scheduler, tcp://host:8786")
+    campaign.add_argument(
+        "--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
+        help="override a field of the base case, e.g. --set grid.nz=8",
+    )  # fmt: skip
+    campaign.add_argument("--no-progress", action="store_true", help="no progress bar")
+    campaign.set_defaults(handler=_campaign)
+
+    add_compare_command(commands)  # sacflow compare STAGE RUN.nc ... (sacflow.compare)
 
     schema = commands.add_parser("schema", help="print the JSON schema of a case")
     schema.set_defaults(handler=_schema)
@@ -101,6 +116,19 @@ def _run(args: argparse.Namespace) -> int:
             continue
         print(summary.line())
     return status
+
+
+def _campaign(args: argparse.Namespace) -> int:
+    from sacflow.campaign import load_campaign, run_campaign  # dask loads only here
+
+    campaign = load_campaign(args.campaign, args.overrides)
+    summary = run_campaign(
+        campaign, args.out, args.workers, args.scheduler, progress=not args.no_progress
+    )
+    print(summary.table())
+    for record in summary.failed:
+        _error(f"{record.name}: {record.error}")
+    return EXIT_RUN_FAILED if summary.failed else 0
 
 
 def _validate(args: argparse.Namespace) -> int:

@@ -21,7 +21,7 @@ from sacflow.schema import Case
 from sacflow.state import GridCoords, State
 from sacflow.store import RunWriter, completed_steps, is_complete, read_scalars
 
-__all__ = ["RunSummary", "Simulation", "run_case"]
+__all__ = ["RunSummary", "Simulation", "run", "run_case"]
 
 
 class Simulation(Protocol):
@@ -154,3 +154,18 @@ def _summary(case: Case, path: Path, start: float, resumed: int, skipped: bool) 
         max_pressure=last("max_pressure"),
         contact_area=last("contact_area"),
     )
+
+
+def run(case: Case | str | Path, out_dir: str | Path = "runs", *, progress: bool = True, **kwargs):
+    """Notebook entry point: run ``case`` (a Case or a config path) and open the result.
+
+    Writes ``out_dir/<case.name>.nc`` like ``sacflow run`` (resuming a partial run) and returns
+    the :class:`xarray.Dataset` from :func:`sacflow.store.open_run`.
+    """
+    from sacflow.config import load_case
+    from sacflow.store import open_run
+
+    if not isinstance(case, Case):
+        case = load_case(case)
+    summary = run_case(case, out_dir, progress=progress, **kwargs)
+    return open_run(summary.path)

@@ -52,7 +52,13 @@ from sacflow.kernels.fft import RealFFT, padded_length, wraparound_offsets
 from sacflow.kernels.residual_displacement import cuboid_surface_displacement
 from sacflow.kernels.surface import rectangle_stress
 
-__all__ = ["HalfSpaceEigenstrain", "eigenstrain_operator", "kernel_bytes"]
+__all__ = [
+    "HalfSpaceEigenstrain",
+    "eigenstrain_operator",
+    "kernel_bytes",
+    "residual_displacement",
+    "residual_stress",
+]
 
 #: Sign of each component under the reflection x3 → −x3 (13 and 23 flip).
 MIRROR_SIGN = np.array([1.0, 1.0, 1.0, 1.0, -1.0, -1.0])
@@ -324,3 +330,51 @@ def eigenstrain_operator(
     """Cached :class:`HalfSpaceEigenstrain` for (shape, spacing, E, ν)."""
     threads = int(os.environ.get("SACFLOW_FFT_THREADS", "0")) or None
     return HalfSpaceEigenstrain(shape, spacing, E, nu, threads=threads)
+
+
+def _operator_for(plastic_strain: np.ndarray, spacing, E: float, nu: float):
+    eps = np.asarray(plastic_strain, dtype=float)
+    if eps.ndim != 4 or eps.shape[-1] != 6:
+        raise ValueError(
+            "plastic_strain must be indexed [x1, x2, x3, component] with 6 components "
+            f"(11 22 33 12 13 23); got shape {eps.shape}"
+        )
+    if len(spacing) != 3 or min(spacing) <= 0:
+        raise ValueError(f"spacing must be (dx1, dx2, dx3) > 0 in metres; got {spacing}")
+    if E <= 0 or not -1.0 < nu < 0.5:
+        raise ValueError(f"need E > 0 and -1 < nu < 0.5; got E={E}, nu={nu}")
+    shape = tuple(int(n) for n in eps.shape[:3])
+    return eigenstrain_operator(shape, tuple(float(d) for d in spacing), float(E), float(nu)), eps
+
+
+def residual_stress(plastic_strain: np.ndarray, spacing, E: float, nu: float) -> np.ndarray:
+    """Residual stress [Pa] of a plastic-strain (eigenstrain) field in an elastic half-space.
+
+    Parameters
+    ----------
+    plastic_strain : ndarray (n1, n2, n3, 6)
+        Uniform strain per cuboid, components (11, 22, 33, 12, 13, 23) with tensor shears;
+        cuboid (i, j, k) is centred at ((i+½) dx1, (j+½) dx2, (k+½) dx3) below the surface.
+    spacing : (dx1, dx2, dx3)
+        Cuboid size [m].
+    E, nu : float
+        Young's modulus [Pa] and Poisson's ratio.
+
+    Returns
+    -------
+    ndarray (n1, n2, n3, 6)
+        Stress at every cuboid centre [Pa], tension positive. Operators are cached per
+        (shape, spacing, E, ν): repeated calls cost one application, O(N log N).
+    """
+    op, eps = _operator_for(plastic_strain, spacing, E, nu)
+    return op.residual_stress(eps)
+
+
+def residual_displacement(plastic_strain: np.ndarray, spacing, E: float, nu: float) -> np.ndarray:
+    """Normal surface displacement [m] (positive into the body) of a plastic-strain field.
+
+    Same arguments as :func:`residual_stress`; returns an (n1, n2) array on the surface cells
+    above the box (seed eq. 1.23, reciprocal theorem).
+    """
+    op, eps = _operator_for(plastic_strain, spacing, E, nu)
+    return op.residual_displacement(eps)

@@ -1,0 +1,55 @@
+"""Shared helpers of the benchmark scripts: isolated runs with peak memory, JSON output.
+
+Benchmarks print JSON and never assert (they are not tests). Each measurement runs in a fresh
+process so that its peak resident memory (``ru_maxrss``) is its own.
+"""
+
+from __future__ import annotations
+
+import json
+import multiprocessing as mp
+import platform
+import resource
+import sys
+import time
+from collections.abc import Callable
+from typing import Any
+
+
+def _child(func: Callable[..., dict], args: tuple, queue) -> None:
+    result = func(*args)
+    result["peak_memory_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    queue.put(result)
+
+
+def isolated(func: Callable[..., dict], *args: Any) -> dict:
+    """Run ``func(*args)`` in a fresh process; return its dict plus ``peak_memory_mb``."""
+    ctx = mp.get_context("spawn")
+    queue = ctx.Queue()
+    proc = ctx.Process(target=_child, args=(func, args, queue))
+    proc.start()
+    result = queue.get()
+    proc.join()
+    return result
+
+
+def timed(func: Callable[[], Any], repeat: int = 3) -> tuple[float, Any]:
+    """Best wall time of ``repeat`` calls of ``func`` and the last result."""
+    best, out = float("inf"), None
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        out = func()
+        best = min(best, time.perf_counter() - t0)
+    return best, out
+
+
+def emit(name: str, results: list[dict]) -> None:
+    """Print the benchmark JSON document on stdout."""
+    doc = {
+        "benchmark": name,
+        "python": sys.version.split()[0],
+        "machine": platform.machine(),
+        "cpus": mp.cpu_count(),
+        "results": results,
+    }
+    print(json.dumps(doc, indent=2))

@@ -1,0 +1,722 @@
+"""Campaigns: a base case swept over parameters, one dask task and one run file per case.
+
+A campaign file (TOML) names a base case (inline ``[base]`` table or ``base = "case.toml"``,
+relative to the campaign file) and ``[[sweep]]`` blocks of dotted case paths (the ``--set``
+syntax) with lists of values. A ``product`` block takes every combination of its lists, a
+``zip`` block takes them side by side; several blocks combine as a product of blocks. Each case
+is named ``<campaign>-<tags>`` from its parameters (``smoke-to0.19-radius0.0001``) and
+identified by its :attr:`~sacflow.schema.Case.case_id`.
+
+Running (DESIGN §1, STYLE 10): one dask task per case, each writing ``<out>/<case name>.nc``
+through :func:`sacflow.runner.run_case` -- no shared file, no lock; the parent only gathers the
+outcomes into ``<out>/<campaign>.manifest.json`` (rewritten atomically after every case).
+Finished cases are skipped on a re-run, interrupted ones resume after their stored steps, and a
+failing case is recorded while the others go on.
+"""
+
+from __future__ import annotations
+
+import copy
+import hashlib
+import json
+import logging
+import os
+import re
+import sys
+import time
+import traceback
+from collections import Counter
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
+from dataclasses import asdict, dataclass, field, replace
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any, Literal, get_origin
+
+from pydantic import ValidationError
+from tqdm.auto import tqdm
+
+from sacflow.config import (
+    MAX_PROBLEMS,
+    _check_surface_file,
+    _drop_consequential,
+    _is_model,
+    _is_union,
+    _item_type,
+    _members,
+    _problem,
+    _resolve_surface_path,
+    _set_dotted,
+    _strip,
+    _suggest,
+    apply_overrides,
+    read_file,
+)
+from sacflow.errors import ConfigError, SacflowError
+from sacflow.schema import FIELD_ERROR, Campaign, Case, Sweep
+
+__all__ = [
+    "CampaignCase",
+    "CampaignSummary",
+    "CaseRecord",
+    "expand_campaign",
+    "load_campaign",
+    "run_campaign",
+    "run_one",
+]
+
+#: Environment variable read by the FFT operators; campaign workers default to 1 thread each.
+FFT_THREADS_ENV = "SACFLOW_FFT_THREADS"
+#: Case names longer than this end in a digest of the parameters instead of all the tags.
+MAX_NAME = 120
+Status = Literal["pending", "done", "failed", "skipped"]
+SimulationFactory = Callable[[Case], Any]
+
+
+# --------------------------------------------------------------------------- loading
+def load_campaign(path: str | Path, overrides: Sequence[str] = ()) -> Campaign:
+    """Read and check a campaign file; ``overrides`` (``dotted.key=value``) apply to the base.
+
+    The returned campaign holds the base case as a table (a base file is read, relative paths
+    are made absolute), and every expanded case has been validated.
+
+    Raises
+    ------
+    ConfigError
+        One screen naming each problem: campaign fields, the base file, sweep paths, or the
+        expanded cases (``case 3 (load_path.0.to=-1): load_path.0.to: must be > 0 ...``).
+    """
+    path = Path(path)
+    source = str(path)
+    try:
+        campaign = Campaign.model_validate(read_file(path))
+    except ValidationError as exc:
+        errors = _drop_consequential(exc.errors(include_url=False))
+        raise ConfigError(_report(source, [_campaign_problem(e) for e in errors])) from None
+    base = _read_base(campaign.base, path.parent, source)
+    try:
+        base = apply_overrides(base, overrides)
+    except ConfigError as exc:
+        raise ConfigError(f"{path}: {exc}") from None
+    sweep = tuple(_absolute_surface_paths(block, path.parent) for block in campaign.sweep)
+    campaign = campaign.model_copy(update={"base": base, "sweep": sweep})
+    expand_campaign(campaign, source)
+    return campaign
+
+
+def _read_base(base: str | dict[str, Any], folder: Path, source: str) -> dict[str, Any]:
+    """The base case as a table; a measured surface path made absolute."""
+    if isinstance(base, dict):
+        data = copy.deepcopy(base)
+        _resolve_surface_path(data, folder)
+        return data
+    file = (folder / Path(base).expanduser()).resolve()
+    if not file.is_file():
+        problem = (
+            f"base: case file {base!r} not found (looked for {file}); "
+            "give a path relative to the campaign file"
+        )
+        raise ConfigError(_report(source, [problem]))
+    try:
+        data = read_file(file)
+    except ConfigError as exc:
+        raise ConfigError(_report(source, [f"base: {exc}"])) from None
+    _resolve_surface_path(data, file.parent)
+    return data
+
+
+def _absolute_surface_paths(block: Sweep, folder: Path) -> Sweep:
+    """Swept measured-surface files are relative to the campaign file, like the base's."""
+    parameters = dict(block.parameters)
+    for key in ("surface.path", "surface"):
+        if key in parameters:
+            values = []
+            for value in parameters[key]:
+                data = {"surface": {"path": value} if key == "surface.path" else value}
+                _resolve_surface_path(data, folder)
+                values.append(data["surface"]["path"] if key == "surface.path" else data["surface"])
+            parameters[key] = tuple(values)
+    return block.model_copy(update={"parameters": parameters})
+
+
+# --------------------------------------------------------------------------- expansion
+@dataclass(frozen=True)
+class CampaignCase:
+    """One expanded case: its 1-based position, the swept values and the validated case."""
+
+    index: int
+    parameters: dict[str, Any]
+    case: Case
+
+    @property
+    def name(self) -> str:
+        """Case name (also the run file name without ``.nc``)."""
+        return self.case.name
+
+    @property
+    def case_id(self) -> str:
+        """Hash of the case (see :attr:`sacflow.schema.Case.case_id`)."""
+        return self.case.case_id
+
+    def label(self) -> str:
+        """``path=value, ...`` of the swept parameters."""
+        return _label(self.parameters)
+
+
+def expand_campaign(campaign: Campaign, source: str = "<campaign>") -> list[CampaignCase]:
+    """Expand the sweep blocks over the base case and validate every case.
+
+    A base given as a path is read relative to the working directory (:func:`load_campaign`
+    reads it relative to the campaign file).
+
+    Raises
+    ------
+    ConfigError
+        Unknown sweep paths, duplicate parameter sets, or invalid cases; problems shared by
+        every case are reported once, as ``base (all cases)``.
+    """
+    base = _read_base(campaign.base, Path.cwd(), source)
+    problems = [
+        f'sweep.{i}.parameters."{key}": {problem}'
+        for i, block in enumerate(campaign.sweep)
+        for key in block.parameters
+        if (problem := _path_problem(key)) is not None
+    ]
+    if problems:
+        raise ConfigError(_report(source, problems))
+    rows = campaign_rows(campaign)
+    problems = _duplicates(rows)
+    names = case_names(campaign.name, rows)
+    cases, failures = [], []
+    for index, (row, name) in enumerate(zip(rows, names, strict=True), start=1):
+        case_or_problems = _build_case(base, row, name, source)
+        if isinstance(case_or_problems, Case):
+            cases.append(CampaignCase(index, row, case_or_problems))
+        else:
+            failures.append((index, row, case_or_problems))
+    problems += _case_problems(failures, len(rows))
+    if problems:
+        raise ConfigError(_report(source, problems))
+    return cases
+
+
+def campaign_rows(campaign: Campaign) -> list[dict[str, Any]]:
+    """Parameter sets of every case: the product of the blocks' rows, in order."""
+    rows: list[dict[str, Any]] = [{}]
+    for block in campaign.sweep:
+        keys, lists = list(block.parameters), list(block.parameters.values())
+        if block.mode == "zip":
+            combos = [dict(zip(keys, values, strict=True)) for values in zip(*lists, strict=True)]
+        else:
+            combos = [{}]
+            for key, values in zip(keys, lists, strict=True):
+                combos = [{**c, key: v} for c in combos for v in values]
+        rows = [{**row, **combo} for row in rows for combo in combos]
+    return rows
+
+
+def case_names(campaign: str, rows: Sequence[Mapping[str, Any]]) -> list[str]:
+    """``<campaign>-<tag>-<tag>...`` per row: deterministic, file-name safe and unique."""
+    keys = _short_keys(list(rows[0]) if rows else [])
+    names = []
+    for row in rows:
+        name = "-".join([campaign, *(keys[k] + _tag_value(v) for k, v in row.items())])
+        if len(name) > MAX_NAME:
+            name = f"{name[: MAX_NAME - 13]}-{_digest(row)[:12]}"
+        names.append(name)
+    counts = Counter(names)  # values that differ but read the same once made file-name safe
+    return [
+        name if counts[name] == 1 else f"{name}-{_digest(row)[:8]}"
+        for name, row in zip(names, rows, strict=True)
+    ]
+
+
+def _build_case(
+    base: Mapping[str, Any], row: Mapping[str, Any], name: str, source: str
+) -> Case | list[str]:
+    """The validated case of one row, or its problems."""
+    data = copy.deepcopy(dict(base))
+    for key, value in row.items():
+        try:
+            _set_dotted(data, key.split("."), copy.deepcopy(value), key)
+        except ConfigError as exc:
+            return [f"{key}: {str(exc).split(': ', 1)[-1]}"]
+    data["name"] = name
+    try:
+        case = Case.model_validate(data)
+    except ValidationError as exc:
+        return [_problem(e) for e in _drop_consequential(exc.errors(include_url=False))]
+    try:
+        _check_surface_file(case, source)
+    except ConfigError as exc:
+        return [line.strip() for line in str(exc).splitlines()[1:]]
+    return case
+
+
+def _case_problems(failures: list[tuple[int, dict[str, Any], list[str]]], total: int) -> list[str]:
+    """One line per problem; those of every case once, as ``base (all cases)``."""
+    if not failures:
+        return []
+    common = set(failures[0][2]) if len(failures) == total and total > 1 else set()
+    for _, _, problems in failures[1:]:
+        common &= set(problems)
+    lines = [f"base (all cases): {p}" for p in failures[0][2] if p in common]
+    for index, row, problems in failures:
+        lines += [f"case {index} ({_label(row)}): {p}" for p in problems if p not in common]
+    return lines
+
+
+def _duplicates(rows: list[dict[str, Any]]) -> list[str]:
+    first: dict[str, int] = {}
+    problems = []
+    for index, row in enumerate(rows, start=1):
+        key = json.dumps(row, sort_keys=True, default=str)
+        if key in first:
+            problems.append(
+                f"sweep: cases {first[key]} and {index} have the same parameters "
+                f"({_label(row)}); remove the repeated value"
+            )
+        first.setdefault(key, index)
+    return problems
+
+
+def _path_problem(key: str) -> str | None:
+    """Why the dotted ``key`` is not a field path of a :class:`Case` (None when it is)."""
+    keys = key.split(".")
+    options: list[Any] = [Case]
+    for depth, part in enumerate(keys):
+        where = ".".join(keys[:depth]) or "the case"
+        found: list[Any] = []
+        fields: list[str] = []
+        sizes: list[int | None] = []
+        for tp in _concrete(options):
+            if _is_model(tp):
+                fields += [f for f in tp.model_fields if f not in fields]
+                if part in tp.model_fields:
+                    found.append(tp.model_fields[part].annotation)
+            elif get_origin(tp) is dict:
+                return None  # free-form table: anything goes below
+            elif get_origin(tp) in (list, tuple):
+                variable = get_origin(tp) is list or tp.__args__[-1] is Ellipsis
+                sizes.append(None if variable else len(tp.__args__))
+                if part.isdigit() and (item := _item_type(tp, int(part))) is not None:
+                    found.append(item)
+        if found:
+            options = found
+        elif fields:
+            return f"{where} has no field {part!r}" + _suggest(part, fields)
+        elif sizes:
+            fixed = [n for n in sizes if n is not None]
+            if part.isdigit() and fixed:
+                return f"{where} has {max(fixed)} items; use an index 0..{max(fixed) - 1}"
+            return f"{where} is a list; use an index, e.g. {where}.0"
+        else:
+            return f"{where} is a value, not a table; remove .{'.'.join(keys[depth:])}"
+    return None
+
+
+def _concrete(options: list[Any]) -> Iterator[Any]:
+    """The concrete types behind annotations, optionals and unions."""
+    for tp in options:
+        tp, _ = _strip(tp)
+        if _is_union(tp):
+            yield from _concrete(_members(tp))
+        else:
+            yield tp
+
+
+def _short_keys(keys: list[str]) -> dict[str, str]:
+    """Shortest distinct dotted suffix of each key, never starting with a list index."""
+    split = {key: key.split(".") for key in keys}
+    short = {}
+    for key, parts in split.items():
+        for n in range(1, len(parts) + 1):
+            suffix = parts[-n:]
+            clash = any(o != key and op[-n:] == suffix for o, op in split.items())
+            if not clash and not suffix[0].isdigit():
+                break
+        short[key] = ".".join(suffix)
+    return short
+
+
+def _tag_value(value: Any) -> str:
+    """A value as a short, file-name safe tag (tables: a digest)."""
+    if isinstance(value, bool):
+        text = str(value).lower()
+    elif isinstance(value, float):
+        text = re.sub(r"e([+-]?)0*(\d)", lambda m: "e" + m[1].strip("+") + m[2], repr(value))
+        text = text.removesuffix(".0")
+    elif isinstance(value, int | str):
+        text = str(value)
+    elif isinstance(value, list | tuple) and all(isinstance(v, int | float | str) for v in value):
+        text = "x".join(_tag_value(v) for v in value)
+    else:
+        text = "h" + _digest(value)[:8]
+    return re.sub(r"[^A-Za-z0-9_.-]+", "_", text) or "_"
+
+
+def _digest(value: Any) -> str:
+    return hashlib.sha256(json.dumps(value, sort_keys=True, default=str).encode()).hexdigest()
+
+
+def _label(row: Mapping[str, Any]) -> str:
+    return ", ".join(f"{k}={_show(v)}" for k, v in row.items())
+
+
+def _show(value: Any) -> str:
+    text = json.dumps(value, default=str) if isinstance(value, str | dict) else repr(value)
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
+# --------------------------------------------------------------------------- error messages
+def _report(source: str, problems: list[str]) -> str:
+    """``source: invalid campaign (n problems)`` then one indented line per problem."""
+    problems = list(dict.fromkeys(problems))  # a union error comes once per member
+    lines = [f"  {problem}" for problem in problems[:MAX_PROBLEMS]]
+    if len(problems) > MAX_PROBLEMS:
+        lines.append(f"  ... and {len(problems) - MAX_PROBLEMS} more")
+    count = f"{len(problems)} problem" + ("s" if len(problems) != 1 else "")
+    return "\n".join([f"{source}: invalid campaign ({count})", *lines])
+
+
+def _campaign_problem(err: Mapping[str, Any]) -> str:
+    """One line for a :class:`Campaign` validation error: the field, what is wrong, the fix."""
+    kind, ctx, loc = err["type"], err.get("ctx") or {}, list(err["loc"])
+    if loc[:1] == ["base"]:
+        loc = ["base"]  # drop the union member pydantic appends
+    owner = Sweep if loc[:1] == ["sweep"] and len(loc) >= 3 else Campaign
+    path = ".".join(f'"{k}"' if "." in str(k) else str(k) for k in loc)
+    info = owner.model_fields.get(str(loc[-1])) if loc else None
+    meaning = f": {info.description}" if info is not None and info.description else ""
+    got = f"; got {_show(err.get('input'))}"
+    if kind == FIELD_ERROR:
+        return f"{'.'.join(p for p in (path, ctx['field']) if p)}: {err['msg']}"
+    if kind == "extra_forbidden":
+        return f"{path}: unknown key" + _suggest(loc[-1], list(owner.model_fields))
+    if kind == "missing":
+        return f"{path}: required field missing{meaning}"
+    if loc == ["base"]:
+        return f"{path}: expected a case file path or an inline [base] table{got}"
+    if kind == "literal_error":
+        return f"{path}: must be {ctx.get('expected')}{got}"
+    if kind == "string_pattern_mismatch":
+        return f"{path}: must start with a letter or digit, then letters, digits, -, _, .{got}"
+    if kind == "too_short":
+        what = {"sweep": "one [[sweep]] block", "parameters": "one parameter"}.get(
+            str(loc[-1]), "one value"
+        )
+        return f"{path}: needs at least {what}{meaning}"
+    if kind in ("tuple_type", "list_type"):
+        return f"{path}: expected a list of values, e.g. [32, 48]{got}"
+    if kind in ("dict_type", "model_type"):
+        return f"{path}: expected a table{meaning}{got}"
+    return f"{path}: {err['msg']}{got}"
+
+
+# --------------------------------------------------------------------------- the dask task
+def run_one(
+    case_json: str, out_dir: str, simulation_factory: SimulationFactory | None = None
+) -> dict[str, Any]:
+    """Dask task: rebuild the case from its JSON and run it into ``out_dir``.
+
+    Never raises for a failing case: returns ``status`` (``done``, ``skipped`` when the file
+    was already complete, ``failed``), ``error``, ``wall_time``, ``steps``, ``resumed_steps``.
+    ``SACFLOW_FFT_THREADS`` defaults to 1 in the worker (one case per core).
+    """
+    os.environ.setdefault(FFT_THREADS_ENV, "1")
+    start = time.perf_counter()
+    try:
+        from sacflow.runner import run_case
+
+        case = Case.model_validate_json(case_json)
+        summary = run_case(
+            case, out_dir, progress=False, simulation_factory=simulation_factory, resume=True
+        )
+    except Exception as exc:  # the case failed; the campaign goes on
+        return {
+            "status": "failed",
+            "error": _describe(exc),
+            "traceback": None if isinstance(exc, SacflowError) else traceback.format_exc(),
+            "wall_time": time.perf_counter() - start,
+        }
+    return {
+        "status": "skipped" if summary.skipped else "done",
+        "wall_time": time.perf_counter() - start,
+        "steps": summary.steps,
+        "resumed_steps": summary.resumed_steps,
+    }
+
+
+def _describe(exc: BaseException) -> str:
+    return str(exc) if isinstance(exc, SacflowError) else f"{type(exc).__name__}: {exc}"
+
+
+# --------------------------------------------------------------------------- records
+@dataclass(frozen=True)
+class CaseRecord:
+    """Outcome of one case, as stored in the manifest (``path`` relative to its folder)."""
+
+    index: int
+    name: str
+    case_id: str
+    parameters: dict[str, Any]
+    path: Path
+    status: Status = "pending"
+    error: str | None = None
+    traceback: str | None = None
+    wall_time: float | None = None
+    steps: int | None = None
+    resumed_steps: int | None = None
+
+    def to_json(self) -> dict[str, Any]:
+        """JSON-ready dict; ``path`` is the file name next to the manifest."""
+        return {**asdict(self), "path": self.path.name}
+
+
+@dataclass(frozen=True)
+class CampaignSummary:
+    """Outcome of a campaign: one record per case, in campaign order."""
+
+    name: str
+    out_dir: Path
+    manifest: Path
+    records: tuple[CaseRecord, ...]
+    wall_time: float
+    workers: int = 0
+    dashboard: str | None = field(default=None, compare=False)
+
+    @property
+    def failed(self) -> tuple[CaseRecord, ...]:
+        """Records of the failed cases."""
+        return tuple(r for r in self.records if r.status == "failed")
+
+    @property
+    def paths(self) -> list[Path]:
+        """Run files of the cases that are complete."""
+        return [r.path for r in self.records if r.status in ("done", "skipped")]
+
+    def counts(self) -> dict[str, int]:
+        """Number of cases per status."""
+        counts = Counter(r.status for r in self.records)
+        return {status: counts.get(status, 0) for status in ("done", "skipped", "failed")}
+
+    def table(self) -> str:
+        """Summary table, one line per case, then the totals."""
+        width = max([len(r.name) for r in self.records] + [4])
+        lines = [f"{'#':>3}  {'case':<{width}}  {'case_id':<12}  {'status':<7}  steps  wall [s]"]
+        for r in self.records:
+            steps = "-" if r.steps is None else str(r.steps)
+            wall = "-" if r.wall_time is None or r.status == "skipped" else f"{r.wall_time:.1f}"
+            line = f"{r.index:>3}  {r.name:<{width}}  {r.case_id:<12}  {r.status:<7}  {steps:>5}"
+            line += f"  {wall:>8}"
+            if r.error:
+                first = r.error.splitlines()[0]
+                line += f"  {first[:60]}{'...' if len(first) > 60 else ''}"
+            lines.append(line)
+        counts = ", ".join(f"{n} {status}" for status, n in self.counts().items())
+        lines.append(f"{self.name}: {counts} in {self.wall_time:.1f} s; manifest {self.manifest}")
+        return "\n".join(lines)
+
+
+class _Manifest:
+    """``<out>/<campaign>.manifest.json``, rewritten atomically after every change."""
+
+    def __init__(self, campaign: Campaign, cases: list[CampaignCase], out_dir: Path) -> None:
+        self.campaign = campaign
+        self.path = out_dir / f"{campaign.name}.manifest.json"
+        previous = self._previous()
+        self.records = {}
+        for c in cases:
+            record = CaseRecord(c.index, c.name, c.case_id, c.parameters, out_dir / f"{c.name}.nc")
+            old = previous.get(c.case_id, {})
+            if old.get("status") in ("done", "skipped"):  # keep the time of the run that did it
+                record = replace(record, wall_time=old.get("wall_time"))
+            self.records[c.index] = record
+
+    def _previous(self) -> dict[str, dict[str, Any]]:
+        try:
+            cases = json.loads(self.path.read_text())["cases"]
+            return {c["case_id"]: c for c in cases}
+        except (OSError, ValueError, KeyError, TypeError):
+            return {}
+
+    def update(self, index: int, **changes: Any) -> None:
+        self.records[index] = replace(self.records[index], **changes)
+
+    def write(self) -> None:
+        records = list(self.records.values())
+        data = {
+            "campaign": self.campaign.name,
+            "description": self.campaign.description,
+            "updated": datetime.now(UTC).isoformat(timespec="seconds"),
+            "counts": dict(Counter(r.status for r in records)),
+            "cases": [r.to_json() for r in records],
+        }
+        tmp = self.path.with_name(f".{self.path.name}.{os.getpid()}.tmp")
+        with open(tmp, "w") as f:
+            json.dump(data, f, indent=2, default=str)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, self.path)
+
+
+# --------------------------------------------------------------------------- running
+def run_campaign(
+    campaign: Campaign | str | Path,
+    out_dir: str | Path,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    progress: bool = True,
+    simulation_factory: SimulationFactory | None = None,
+) -> CampaignSummary:
+    """Run every case of ``campaign`` with dask, one task and one file per case.
+
+    Parameters
+    ----------
+    campaign : Campaign, str or Path
+        The campaign, or its file (read with :func:`load_campaign`).
+    out_dir : str or Path
+        Output folder: ``<case name>.nc`` per case and ``<campaign>.manifest.json``. With
+        ``scheduler``, the workers must see it at the same path (shared file system).
+    workers : int, optional
+        Worker processes of the local cluster (default: one per core, at most one per case).
+    scheduler : str, optional
+        Address of a running dask scheduler (``tcp://host:8786``) to use instead.
+    progress : bool
+        Progress bar over the cases; the dashboard link is printed either way (stderr).
+    simulation_factory : callable, optional
+        ``factory(case) -> simulation`` passed to :func:`sacflow.runner.run_case`; it must be
+        importable by the workers (a module-level function).
+
+    Returns
+    -------
+    CampaignSummary
+        Records in campaign order; a failed case has ``status == "failed"`` and its message.
+    """
+    start = time.perf_counter()
+    if not isinstance(campaign, Campaign):
+        campaign = load_campaign(campaign)
+    if workers is not None and (scheduler or workers < 1):
+        raise ConfigError(
+            "--workers sizes the local cluster; use a positive number and no --scheduler"
+        )
+    cases = expand_campaign(campaign)
+    out_dir = Path(out_dir).resolve()
+    out_dir.mkdir(parents=True, exist_ok=True)
+    manifest = _Manifest(campaign, cases, out_dir)
+    pending = _skip_complete(cases, manifest)
+    manifest.write()
+    _say(
+        f"{campaign.name}: {len(cases)} cases, {len(cases) - len(pending)} already complete, "
+        f"{len(pending)} to run"
+    )
+    n_workers, dashboard = 0, None
+    if pending:
+        with _client(scheduler, workers, len(pending)) as client:
+            n_workers = len(client.scheduler_info().get("workers", {}))
+            dashboard = _dashboard(client)
+            _say(f"dask: {client.scheduler.address}, {n_workers} workers, dashboard {dashboard}")
+            _run_pending(client, pending, out_dir, manifest, progress, simulation_factory)
+    return CampaignSummary(
+        name=campaign.name,
+        out_dir=out_dir,
+        manifest=manifest.path,
+        records=tuple(manifest.records.values()),
+        wall_time=time.perf_counter() - start,
+        workers=n_workers,
+        dashboard=dashboard,
+    )
+
+
+def _skip_complete(cases: list[CampaignCase], manifest: _Manifest) -> list[CampaignCase]:
+    """Mark the cases whose run file is complete as skipped; return the others."""
+    from sacflow.store import completed_steps, is_complete  # xarray only when running
+
+    pending = []
+    for c in cases:
+        path = manifest.records[c.index].path
+        if is_complete(path, c.case_id):
+            manifest.update(c.index, status="skipped", steps=completed_steps(path))
+        else:
+            pending.append(c)
+    return pending
+
+
+def _run_pending(
+    client: Any,
+    pending: list[CampaignCase],
+    out_dir: Path,
+    manifest: _Manifest,
+    progress: bool,
+    simulation_factory: SimulationFactory | None,
+) -> None:
+    from distributed import as_completed
+
+    futures = {
+        client.submit(
+            run_one, c.case.canonical_json(), str(out_dir), simulation_factory, pure=False
+        ): c
+        for c in pending
+    }
+    failed = 0
+    bar = tqdm(total=len(futures), desc=manifest.campaign.name, unit="case", disable=not progress)
+    with bar:
+        for future in as_completed(futures):
+            case = futures.pop(future)
+            try:
+                outcome = future.result()
+            except Exception as exc:  # the worker died (KilledWorker), or the task was lost
+                outcome = {"status": "failed", "error": _describe(exc)}
+            manifest.update(case.index, **outcome)
+            manifest.write()
+            failed += outcome["status"] == "failed"
+            bar.set_postfix(failed=failed, refresh=False)
+            bar.update()
+
+
+@contextmanager
+def _client(scheduler: str | None, workers: int | None, tasks: int) -> Iterator[Any]:
+    """A dask client: on ``scheduler``, or on a new local cluster closed at the end."""
+    from distributed import Client, LocalCluster
+
+    if scheduler:
+        try:
+            client = Client(scheduler, timeout="10s")
+        except (OSError, TimeoutError) as exc:
+            raise SacflowError(
+                f"cannot connect to the dask scheduler at {scheduler} ({exc}); start one with "
+                "`dask scheduler` and workers with `dask worker <address>`"
+            ) from None
+        with client:
+            yield client
+        return
+    n = min(workers or _cores(), tasks)
+    cluster = LocalCluster(
+        n_workers=n,
+        threads_per_worker=1,
+        processes=True,
+        silence_logs=logging.ERROR,
+        env={FFT_THREADS_ENV: "1"},  # n single-threaded cases, not n × cores FFT threads
+    )
+    try:
+        with Client(cluster) as client:
+            yield client
+    finally:
+        cluster.close()
+
+
+def _cores() -> int:
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover - not on Linux
+        return max(1, os.cpu_count() or 1)
+
+
+def _dashboard(client: Any) -> str:
+    if "dashboard" not in client.scheduler_info().get("services", {}):
+        return "not available (install bokeh to get it)"
+    return str(client.dashboard_link)
+
+
+def _say(message: str) -> None:
+    print(message, file=sys.stderr, flush=True)

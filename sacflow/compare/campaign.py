@@ -1,0 +1,227 @@
+"""Stage :func:`campaign_summary`: scalar results of many runs along a ``case`` dimension.
+
+Swept parameters become coordinates along ``case``. They are read from
+
+* a campaign manifest (JSON file or the equivalent mapping): a list of entries, or a mapping
+  ``{"cases": [...]}`` / ``{"runs": [...]}``, or ``{name_or_id: parameters}``; an entry is a
+  mapping with ``parameters`` (or ``params``/``overrides``: dotted key -> value) and any of
+  ``case_id``, ``name``, ``path`` to find its run, and optionally ``wall_time`` [s];
+* a list of dotted keys of the case (e.g. ``["load_path.0.to", "body.hardening.n"]``), read
+  from the case JSON stored in each run;
+* by default, every dotted key of the stored case JSON whose value differs between the runs
+  (``name`` and ``description`` aside).
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterable, Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import xarray as xr
+
+from sacflow.compare.core import CompareError, RunLike, build, case_name, load_run
+from sacflow.store import open_run
+
+__all__ = ["campaign_summary", "flatten"]
+
+Parameters = str | Path | Mapping[str, Any] | Sequence[str] | None
+_IGNORED = {"name", "description"}
+_WALL_TIME_ATTRS = ("wall_time", "wall_time_s", "elapsed")
+
+
+def flatten(value: Any, prefix: str = "") -> dict[str, Any]:
+    """Nested dicts and lists as ``{"dotted.key.0": scalar}`` (list items by index)."""
+    if isinstance(value, Mapping):
+        items: Iterable[tuple[Any, Any]] = value.items()
+    elif isinstance(value, list | tuple):
+        items = enumerate(value)
+    else:
+        return {prefix: value}
+    out: dict[str, Any] = {}
+    for key, item in items:
+        out.update(flatten(item, f"{prefix}.{key}" if prefix else str(key)))
+    return out
+
+
+def _open(source: RunLike) -> xr.Dataset:
+    if isinstance(source, xr.Dataset):
+        return load_run(source)
+    path = Path(source)
+    if not path.exists():
+        return load_run(path)  # interrupted run (parts) or a clear error
+    try:
+        ds = open_run(path, lazy=True)
+    except (OSError, ValueError, RuntimeError) as exc:
+        raise CompareError(f"{path}: not a readable netCDF run file ({exc})") from None
+    ds.attrs.setdefault("source", str(path))
+    return load_run(ds)
+
+
+def _last_stored(ds: xr.Dataset, name: str) -> xr.DataArray | None:
+    """``ds[name]`` at the last step where it holds finite values (None if never)."""
+    if name not in ds.variables:
+        return None
+    for index in range(ds.sizes["step"] - 1, -1, -1):
+        values = ds[name].isel(step=index).load()
+        if np.isfinite(values.values).any():
+            return values
+    return None
+
+
+def _results(ds: xr.Dataset) -> dict[str, float]:
+    """Scalar results of one run; NaN where the run lacks the output."""
+    out: dict[str, float] = {}
+    eps = _last_stored(ds, "equivalent_plastic_strain")
+    keys = ("max_plastic_strain", "max_plastic_strain_x1", "max_plastic_strain_x2",
+            "max_plastic_strain_depth")
+    if eps is not None:
+        values = np.asarray(eps.transpose("x1", "x2", "x3").values, dtype=float)
+        i1, i2, i3 = np.unravel_index(int(np.nanargmax(values)), values.shape)
+        found = (values[i1, i2, i3], eps.x1.values[i1], eps.x2.values[i2], eps.x3.values[i3])
+        out.update(zip(keys, map(float, found), strict=True))
+    else:
+        out.update(dict.fromkeys(keys, np.nan))
+    stress = _last_stored(ds, "residual_stress")
+    s11 = None if stress is None else np.asarray(stress.sel(component="11").values, dtype=float)
+    out["residual_stress_11_min"] = np.nan if s11 is None else float(np.nanmin(s11))
+    out["residual_stress_11_max"] = np.nan if s11 is None else float(np.nanmax(s11))
+    dent = _last_stored(ds, "residual_displacement")
+    out["dent_depth"] = np.nan if dent is None else float(np.nanmax(dent.values))
+
+    def total(name: str) -> float:
+        return float(np.nansum(ds[name].values)) if name in ds.variables else np.nan
+
+    peak = ds["max_pressure"].values if "max_pressure" in ds.variables else [np.nan]
+    out["peak_pressure"] = float(np.nanmax(peak)) if np.isfinite(peak).any() else np.nan
+    out["contact_iterations_total"] = total("contact_iterations")
+    out["plasticity_iterations_total"] = total("plasticity_iterations")
+    out["iterations_total"] = out["contact_iterations_total"] + out["plasticity_iterations_total"]
+    out["steps"] = float(ds.sizes["step"])
+    wall = next((ds.attrs[k] for k in _WALL_TIME_ATTRS if k in ds.attrs), np.nan)
+    out["wall_time"] = float(wall)
+    return out
+
+
+def _manifest_entries(manifest: Any) -> list[dict[str, Any]]:
+    """Normalise the accepted manifest layouts to a list of entries with ``parameters``."""
+    if isinstance(manifest, Mapping):
+        for key in ("cases", "runs"):
+            if key in manifest:
+                return _manifest_entries(manifest[key])
+        return [
+            {"name": key, "case_id": key, "parameters": dict(value)}
+            for key, value in manifest.items()
+            if isinstance(value, Mapping)
+        ]
+    if isinstance(manifest, list):
+        entries = []
+        for item in manifest:
+            if not isinstance(item, Mapping):
+                raise CompareError("manifest entries must be tables (JSON objects)")
+            params = next((item[k] for k in ("parameters", "params", "overrides") if k in item),
+                          {})
+            entries.append({**item, "parameters": dict(params)})
+        return entries
+    raise CompareError("the campaign manifest must be a JSON object or list of cases")
+
+
+def _match(entries: list[dict[str, Any]], ds: xr.Dataset, source: Any) -> dict[str, Any]:
+    """The manifest entry of a run: by case id, case name or run-file name."""
+    keys = {str(ds.attrs.get("case_id", "")), case_name(ds)}
+    stem = Path(str(source)).stem if not isinstance(source, xr.Dataset) else None
+    for entry in entries:
+        ids = {str(entry.get("case_id", "")), str(entry.get("name", ""))} - {""}
+        path = entry.get("path") or entry.get("file")
+        if ids & keys or (path is not None and Path(str(path)).stem in {stem, case_name(ds)}):
+            return entry
+    raise CompareError(f"run {case_name(ds)!r} is not listed in the campaign manifest")
+
+
+def _coordinate(values: list[Any]) -> np.ndarray:
+    """Numeric array if every value is a number, else strings."""
+    if all(isinstance(v, int | float) and not isinstance(v, bool) for v in values):
+        return np.asarray(values, dtype=float)
+    return np.asarray([json.dumps(v) if not isinstance(v, str) else v for v in values])
+
+
+def campaign_summary(
+    runs: Sequence[RunLike], parameters: Parameters = None
+) -> xr.Dataset:
+    """Scalar results of the runs of a campaign along a ``case`` dimension.
+
+    Parameters
+    ----------
+    runs : sequence of Dataset or path
+        The run files (or opened runs) of the campaign.
+    parameters : path, mapping, sequence of str or None
+        Where the swept parameters come from (see the module docstring).
+
+    Returns
+    -------
+    xarray.Dataset
+        Along ``case`` (case names; ``case_id`` coordinate; one coordinate per swept
+        parameter, named by its dotted key): ``max_plastic_strain`` and its position,
+        ``residual_stress_11_min``/``_max``, ``dent_depth``, ``peak_pressure``, iteration
+        totals, ``steps`` and ``wall_time`` (NaN where a run lacks the output). Attribute
+        ``parameters`` lists the swept keys in order.
+    """
+    if isinstance(runs, str | Path | xr.Dataset):
+        runs = [runs]
+    if not runs:
+        raise CompareError("campaign-summary needs at least one run")
+    datasets = [_open(r) for r in runs]
+    try:
+        cases = [flatten(json.loads(ds.attrs["case"])) for ds in datasets]
+        entries = None
+        if isinstance(parameters, str | Path):
+            try:
+                manifest = json.loads(Path(parameters).read_text())
+            except (OSError, ValueError) as exc:
+                raise CompareError(f"{parameters}: not a readable JSON manifest ({exc})") from None
+            entries = _manifest_entries(manifest)
+        elif isinstance(parameters, Mapping):
+            entries = _manifest_entries(parameters)
+        matched = [_match(entries, ds, r) for ds, r in zip(datasets, runs, strict=True)] if (
+            entries is not None) else None
+
+        if matched is not None:
+            keys = list(dict.fromkeys(k for e in matched for k in e["parameters"]))
+            values = {k: [e["parameters"].get(k) for e in matched] for k in keys}
+        elif parameters is not None:  # dotted keys of the case
+            keys = [str(k) for k in parameters]
+            unknown = [k for k in keys if any(k not in c for c in cases)]
+            if unknown:
+                raise CompareError(f"not a (scalar) field of every case: {', '.join(unknown)}")
+            values = {k: [c[k] for c in cases] for k in keys}
+        else:
+            keys = [
+                k for k in dict.fromkeys(k for c in cases for k in c)
+                if k not in _IGNORED and len({json.dumps(c.get(k)) for c in cases}) > 1
+            ]
+            values = {k: [c.get(k) for c in cases] for k in keys}
+        rows = [_results(ds) for ds in datasets]
+    finally:
+        for ds, source in zip(datasets, runs, strict=True):
+            if not isinstance(source, xr.Dataset):
+                ds.close()
+    if matched is not None:
+        for row, entry in zip(rows, matched, strict=True):
+            if "wall_time" in entry and not np.isfinite(row["wall_time"]):
+                row["wall_time"] = float(entry["wall_time"])
+    names = [case_name(ds) for ds in datasets]
+    ids = [str(ds.attrs.get("case_id", "")) for ds in datasets]
+    labels = names if len(set(names)) == len(names) else [f"{n}-{i}" for n, i in
+                                                          zip(names, ids, strict=True)]
+    coords: dict[str, Any] = {"case": labels, "case_id": ("case", ids)}
+    coords.update({k: ("case", _coordinate(v)) for k, v in values.items()})
+    data = {k: ("case", np.array([row[k] for row in rows])) for k in rows[0]}
+    return build(
+        data,
+        coords=coords,
+        attrs={"stage": "campaign-summary", "case": f"campaign of {len(rows)} runs",
+               "parameters": " ".join(keys)},
+        metadata_of={k: f"swept parameter {k}" for k in keys},
+    )

@@ -1,0 +1,192 @@
+"""Stages on the volume fields of one run: :func:`indentation_profiles`, :func:`residual_map`.
+
+Profiles off the grid points are linear interpolations between cell centres (fields are constant
+per cuboid, so this is the natural continuous reading); maps are taken in the cuboid layer
+nearest to the requested depth, whose actual depth is recorded in the attributes.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import xarray as xr
+
+from sacflow.compare.core import (
+    CompareError,
+    RunLike,
+    build,
+    case_name,
+    load_run,
+    max_load_index,
+    nearest,
+    require,
+    step_index,
+)
+from sacflow.state import COMPONENTS
+
+__all__ = ["indentation_profiles", "residual_map"]
+
+
+def _argext(field: xr.DataArray, fn) -> tuple[float, dict[str, float]]:
+    """Extreme value of ``field`` (``np.nanargmin``/``np.nanargmax``) and its coordinates."""
+    values = np.asarray(field.values, dtype=float)
+    if not np.isfinite(values).any():
+        return np.nan, {d: np.nan for d in field.dims}
+    flat = int(fn(values))
+    where = np.unravel_index(flat, values.shape)
+    coords = {d: float(field[d].values[i]) for d, i in zip(field.dims, where, strict=True)}
+    return float(values.flat[flat]), coords
+
+
+def indentation_profiles(
+    run: RunLike, offsets: Sequence[float] = (0.0, 2e-6), method: str = "linear"
+) -> xr.Dataset:
+    """Equivalent plastic strain and residual σ11, σ33 versus depth (seed Figs. 13–16).
+
+    Profiles on the load axis (the load point at the maximum load) and at lateral ``offsets``
+    along x1 from it, at the maximum load and at the last step.
+
+    Parameters
+    ----------
+    run : Dataset or path
+        An elastic-plastic run with volume output at the maximum load and at the end.
+    offsets : sequence of float
+        x1 offsets of the profiles from the axis [m] (seed: 0 and 2 µm ≈ 0.25 a).
+    method : {"linear", "nearest"}
+        Lateral interpolation between cell centres.
+
+    Returns
+    -------
+    xarray.Dataset
+        ``equivalent_plastic_strain``, ``residual_stress_11``, ``residual_stress_33`` on
+        (``when`` = max_load, last; ``offset``; ``x3``); summary numbers at the last step:
+        ``max_plastic_strain`` and its position (``_x1``, ``_x2``, ``_depth``) over the whole
+        body, ``print_depth`` (max residual displacement), on the axis
+        ``residual_stress_11_first_layer``, ``residual_stress_33_first_layer``,
+        ``residual_stress_11_axis_min`` (and ``_depth``), ``residual_stress_11_axis_max``,
+        ``residual_stress_33_axis_min``, ``residual_stress_33_axis_max``.
+    """
+    ds = load_run(run)
+    stage = "indentation"
+    require(ds, "load", "load_x1", "load_x2", "residual_stress", "residual_displacement",
+            stage=stage)
+    name = "equivalent_plastic_strain"
+    steps = {w: step_index(ds, name, w, stage) for w in ("max_load", "last")}
+    axis = ds.isel(step=max_load_index(ds))
+    c1, c2 = float(axis["load_x1"]), float(axis["load_x2"])
+    offsets = np.atleast_1d(np.asarray(offsets, dtype=float))
+    lateral = {"x1": xr.DataArray(c1 + offsets, dims="offset"), "x2": c2}
+
+    def at(index: int, var: str, component: str | None = None, where=lateral) -> xr.DataArray:
+        da = ds[var].isel(step=index)
+        if component is not None:
+            da = da.sel(component=component)
+        return da.interp(where, method=method)
+
+    profiles: dict[str, list[np.ndarray]] = {}
+    for index in steps.values():
+        for var, key, comp in (
+            (name, name, None),
+            ("residual_stress", "residual_stress_11", "11"),
+            ("residual_stress", "residual_stress_33", "33"),
+        ):
+            da = at(index, var, comp).transpose("offset", "x3")
+            profiles.setdefault(key, []).append(np.asarray(da.values, dtype=float))
+
+    last = steps["last"]
+    peak, where = _argext(ds[name].isel(step=last), np.nanargmax)
+    surface = step_index(ds, "residual_displacement", "last", stage)
+    on_axis = {"x1": c1, "x2": c2}
+    s11 = np.asarray(at(last, "residual_stress", "11", on_axis).values, dtype=float)
+    s33 = np.asarray(at(last, "residual_stress", "33", on_axis).values, dtype=float)
+    x3 = np.asarray(ds["x3"].values, dtype=float)
+    finite = np.isfinite(s11).any()
+    data = {k: (("when", "offset", "x3"), np.stack(v)) for k, v in profiles.items()}
+    data.update(
+        max_plastic_strain=peak,
+        max_plastic_strain_x1=where["x1"],
+        max_plastic_strain_x2=where["x2"],
+        max_plastic_strain_depth=where["x3"],
+        print_depth=float(np.nanmax(ds["residual_displacement"].isel(step=surface).values)),
+        residual_stress_11_first_layer=float(s11[0]),
+        residual_stress_33_first_layer=float(s33[0]),
+        residual_stress_11_axis_min=float(np.nanmin(s11)) if finite else np.nan,
+        residual_stress_11_axis_min_depth=float(x3[np.nanargmin(s11)]) if finite else np.nan,
+        residual_stress_11_axis_max=float(np.nanmax(s11)) if finite else np.nan,
+        residual_stress_33_axis_min=float(np.nanmin(s33)) if finite else np.nan,
+        residual_stress_33_axis_max=float(np.nanmax(s33)) if finite else np.nan,
+    )
+    return build(
+        data,
+        coords={
+            "when": list(steps),
+            "step": ("when", [int(ds["step"].values[i]) for i in steps.values()]),
+            "offset": offsets,
+            "profile_x1": ("offset", c1 + offsets),
+            "x3": x3,
+        },
+        attrs={
+            "stage": stage,
+            "case": case_name(ds),
+            "axis_x1": c1,
+            "axis_x2": c2,
+            "first_layer_depth": float(x3[0]),
+            "interpolation": method,
+        },
+    )
+
+
+def residual_map(
+    run: RunLike, depth: float = 65e-6, component: str = "11", step: str | int = "last"
+) -> xr.Dataset:
+    """Residual stress map in the plane x3 = ``depth`` (nearest layer) (seed Fig. 21).
+
+    Parameters
+    ----------
+    run : Dataset or path
+        An elastic-plastic run.
+    depth : float
+        Depth of the plane [m]; the nearest cuboid layer is used.
+    component : {"11", "22", "33", "12", "13", "23"}
+        Residual stress component.
+    step : "last", "max_load" or int
+        Step (see :func:`sacflow.compare.core.step_index`).
+
+    Returns
+    -------
+    xarray.Dataset
+        ``residual_stress_map`` (x1, x2); ``map_min``/``map_max`` and their positions.
+    """
+    ds = load_run(run)
+    stage = "residual-map"
+    if str(component) not in COMPONENTS:
+        raise CompareError(f"component must be one of {', '.join(COMPONENTS)}, not {component!r}")
+    index = step_index(ds, "residual_stress", step, stage)
+    layer = nearest(ds["x3"].values, depth)
+    field = ds["residual_stress"].isel(step=index, x3=layer).sel(component=str(component))
+    field = field.transpose("x1", "x2")
+    low, at_low = _argext(field, np.nanargmin)
+    high, at_high = _argext(field, np.nanargmax)
+    actual = float(ds["x3"].values[layer])
+    return build(
+        {
+            "residual_stress_map": (("x1", "x2"), np.asarray(field.values, dtype=float)),
+            "map_min": low,
+            "map_min_x1": at_low["x1"],
+            "map_min_x2": at_low["x2"],
+            "map_max": high,
+            "map_max_x1": at_high["x1"],
+            "map_max_x2": at_high["x2"],
+        },
+        coords={"x1": ds["x1"].values, "x2": ds["x2"].values},
+        attrs={
+            "stage": stage,
+            "case": case_name(ds),
+            "component": str(component),
+            "depth": actual,
+            "requested_depth": float(depth),
+            "step": int(ds["step"].values[index]),
+        },
+        context={"component": component, "depth": f"{actual * 1e6:.4g} µm"},
+    )
