@@ -51,6 +51,19 @@ class StepPlan:
     position: tuple[float, float]
 
 
+@dataclass(frozen=True)
+class Increment:
+    """Converged increment: window slices, its initial gap, the contact solution, the plastic
+    update ``(Δεp, Δp)`` (None when elastic) and iteration counts."""
+
+    window: tuple[slice, slice]
+    geometry: np.ndarray
+    contact: ContactResult
+    update: tuple[np.ndarray, np.ndarray] | None
+    contact_iterations: int
+    plasticity_iterations: int
+
+
 def plan_steps(load_path, cell: tuple[float, float]) -> list[StepPlan]:
     """Expand load-path segments into increments (roll steps snapped to whole cells)."""
     steps: list[StepPlan] = []
@@ -176,9 +189,11 @@ class Simulation:
             s = np.moveaxis(s, -1, 1)  # (nz, 6, L1, L2)
             return s.reshape(6 * self.nz, 1, *s.shape[2:])
 
-        # Pressure on the window -> stress on the whole body grid (offset: window corner = 0).
-        self._stress_ops: dict[tuple[int, int], Convolution] = {}
-        self._stress_coefficients = stresses
+        # Pressure (embedded in the body grid at the window's place) -> stress on the body grid:
+        # one operator serves every load position.
+        self.pressure_stress_op = Convolution(
+            stresses, self.body_shape, self.body_shape, threads=self.threads
+        )
         self.eigen = (
             HalfSpaceEigenstrain(
                 (*self.body_shape, self.nz), (dx1, dx2, self.dz), self.E, self.nu,
@@ -188,34 +203,32 @@ class Simulation:
             else None
         )
 
-    def _pressure_stress(self, pressure: np.ndarray, corner: tuple[int, int]) -> np.ndarray:
-        """Stress [Pa] on the body grid, (nbx, nby, nz, 6), of the window pressure at ``corner``."""
-        op = self._stress_ops.get(corner)
-        if op is None:
-            op = Convolution(
-                self._stress_coefficients, self.window, self.body_shape,
-                offset=(-corner[0], -corner[1]), threads=self.threads,
-            )
-            self._stress_ops[corner] = op
-        out = op(pressure[None])  # (6 nz, nbx, nby)
+    def _pressure_stress(self, pressure: np.ndarray, sl) -> np.ndarray:
+        """Stress [Pa] on the body grid, (nbx, nby, nz, 6), of the window pressure at ``sl``."""
+        embedded = np.zeros(self.body_shape)
+        embedded[sl] = pressure
+        out = self.pressure_stress_op(embedded[None])  # (6 nz, nbx, nby)
         out = out.reshape(self.nz, 6, *self.body_shape)
         return np.moveaxis(out, (0, 1), (2, 3))
 
     # ------------------------------------------------------------------ geometry
-    def _window_slices(self, position: tuple[float, float]) -> tuple[tuple[int, int], tuple]:
+    def _window_slices(self, position: tuple[float, float]) -> tuple[slice, slice]:
+        """Slices of the body grid covered by the contact window centred on ``position``."""
         c = np.rint(np.array(position) / np.array(self.cell)).astype(int) + self._origin_cells
-        corner = (int(c[0]), int(c[1]))
-        sl = (slice(corner[0], corner[0] + self.window[0]),
-              slice(corner[1], corner[1] + self.window[1]))
-        return corner, sl
+        return (slice(int(c[0]), int(c[0]) + self.window[0]),
+                slice(int(c[1]), int(c[1]) + self.window[1]))
 
-    def _geometry(self, position: tuple[float, float], sl) -> np.ndarray:
-        """Initial gap on the window (curvature about the load point + body-fixed features)."""
-        x1 = self.coords.x1[sl[0]][:, None]
-        x2 = self.coords.x2[sl[1]][None, :]
+    def _initial_gap(self, position: tuple[float, float], x1, x2) -> np.ndarray:
+        """Initial gap at body-frame points: curvature about the load point + surface features."""
         dents = getattr(self.case.surface, "dents", ())
         h = curvature_gap(x1, x2, position[0], position[1], self.radii)
         return h + features_gap(x1, x2, dents, self._heights)
+
+    def _geometry(self, position: tuple[float, float], sl) -> np.ndarray:
+        """Initial gap on the contact window ``sl``."""
+        return self._initial_gap(
+            position, self.coords.x1[sl[0]][:, None], self.coords.x2[sl[1]][None, :]
+        )
 
     # ------------------------------------------------------------------ one increment
     def _contact(self, h: np.ndarray, load: float, step: int) -> ContactResult:
@@ -226,13 +239,15 @@ class Simulation:
             max_iter=opts.contact_max_iterations, step=step,
         )
 
-    def _increment(self, step: int, plan: StepPlan):
-        """Solve one increment; returns (contact, total stress, Δεp, Δp, iterations)."""
+    def _increment(self, step: int, plan: StepPlan) -> Increment:
+        """Solve one increment (the fixed point of the module docstring)."""
         opts = self.case.solver
-        corner, sl = self._window_slices(plan.position)
+        sl = self._window_slices(plan.position)
         geometry = self._geometry(plan.position, sl)
         if self._h_offset is None:
-            self._h_offset = float(geometry.min())
+            # first contact: the lowest point of the initial gap (cell centres or load point)
+            at_load = self._initial_gap(plan.position, *np.array(plan.position)[:, None])[0]
+            self._h_offset = float(min(geometry.min(), at_load))
         geometry = geometry - self._h_offset
         contact_iterations = 0
 
@@ -245,21 +260,20 @@ class Simulation:
 
         if not self.plastic:
             result = solve(self.residual_displacement)
-            return (corner, sl, geometry, result, self.residual_stress, None, None,
-                    contact_iterations, 0)
+            return Increment(sl, geometry, result, None, contact_iterations, 0)
         shape = self.plastic_strain.shape
         depth = self.coords.x3
         mixer = AndersonMixer(opts.anderson_depth if opts.acceleration == "anderson" else 0)
         x = np.zeros(shape)
         tol = opts.plasticity_tolerance
         floor = 1e-14
-        best = (np.inf, None)
+        best = np.inf
         u_prev = None
         for iteration in range(1, opts.plasticity_max_iterations + 1):
             eps = self.plastic_strain + x
             sig_r, u_box = self.eigen.residual_stress(eps, with_displacement=True)
             result = solve(u_box)
-            sig = self._pressure_stress(result.pressure, corner) + sig_r
+            sig = self._pressure_stress(result.pressure, sl) + sig_r
             trial = sig + 2.0 * self.mu * x
             ret = radial_return(trial, self.eqps, self.law, self.mu, depth=depth)
             gx = ret.plastic_strain_increment
@@ -270,13 +284,12 @@ class Simulation:
                 if u_prev is not None else np.inf
             )
             u_prev = u_box
-            if change < best[0]:
-                best = (change, None)
+            best = min(best, change)
             if change < tol and (du < opts.coupling_tolerance or np.abs(gx).max() == 0.0):
-                return (corner, sl, geometry, result, sig_r, sig, (gx, ret.eqps_increment),
-                        contact_iterations, iteration)
+                return Increment(sl, geometry, result, (gx, ret.eqps_increment),
+                                 contact_iterations, iteration)
             x = mixer.step(x.ravel(), gx.ravel()).reshape(shape)
-        raise ConvergenceError("plasticity", step=step, residual=best[0], tolerance=tol,
+        raise ConvergenceError("plasticity", step=step, residual=best, tolerance=tol,
                                iterations=opts.plasticity_max_iterations)
 
     # ------------------------------------------------------------------ driver
@@ -292,21 +305,19 @@ class Simulation:
         for step, plan in enumerate(self.steps):
             if plan.load <= 0.0:
                 self._pressure = None
-            (corner, sl, geometry, result, sig_r, sig, update, n_contact,
-             n_plastic) = self._increment(step, plan)
-            if update is not None:
-                deps, dp = update
+            inc = self._increment(step, plan)
+            if inc.update is not None:
+                deps, dp = inc.update
                 self.plastic_strain += deps
                 self.eqps += dp
-                self.residual_stress = sig_r
                 # residual fields of the converged plastic strain
                 self.residual_stress, self.residual_displacement = self.eigen.residual_stress(
                     self.plastic_strain, with_displacement=True)
                 self._check_box(step)
             volume = {}
             if step % every == every - 1 or step == self.total_steps - 1:
-                volume = self._volume_fields(result, corner)
-            yield self._state(step, plan, result, geometry, sl, n_contact, n_plastic, volume)
+                volume = self._volume_fields(inc.contact, inc.window)
+            yield self._state(step, plan, inc, volume)
 
     def _check_box(self, step: int) -> None:
         """Warn when plastic strain reaches the bottom or the sides of the cuboid box."""
@@ -323,8 +334,8 @@ class Simulation:
                 "increase grid.half_width", RuntimeWarning, stacklevel=2,
             )
 
-    def _volume_fields(self, result: ContactResult, corner) -> dict[str, np.ndarray]:
-        stress = self._pressure_stress(result.pressure, corner) + self.residual_stress
+    def _volume_fields(self, result: ContactResult, sl) -> dict[str, np.ndarray]:
+        stress = self._pressure_stress(result.pressure, sl) + self.residual_stress
         if self.plastic:
             yield_stress = self.law.yield_stress(self.eqps, self.coords.x3)
         else:
@@ -338,8 +349,9 @@ class Simulation:
             "yield_stress": np.asarray(yield_stress, dtype=float),
         }
 
-    def _state(self, step, plan, result, geometry, sl, n_contact, n_plastic, volume) -> State:
-        shape = self.body_shape
+    def _state(self, step: int, plan: StepPlan, inc: Increment, volume: dict) -> State:
+        shape, sl, result, geometry = self.body_shape, inc.window, inc.contact, inc.geometry
+        n_contact, n_plastic = inc.contact_iterations, inc.plasticity_iterations
         pressure = np.zeros(shape)
         pressure[sl] = result.pressure
         gap = np.full(shape, np.nan)

@@ -101,7 +101,10 @@ def _results(ds: xr.Dataset) -> dict[str, float]:
     out["iterations_total"] = out["contact_iterations_total"] + out["plasticity_iterations_total"]
     out["steps"] = float(ds.sizes["step"])
     wall = next((ds.attrs[k] for k in _WALL_TIME_ATTRS if k in ds.attrs), np.nan)
-    out["wall_time"] = float(wall)
+    try:
+        out["wall_time"] = float(wall)
+    except (TypeError, ValueError):
+        out["wall_time"] = np.nan
     return out
 
 
@@ -126,6 +129,22 @@ def _manifest_entries(manifest: Any) -> list[dict[str, Any]]:
             entries.append({**item, "parameters": dict(params)})
         return entries
     raise CompareError("the campaign manifest must be a JSON object or list of cases")
+
+
+def _manifest_runs(path: Path) -> list[Path]:
+    """Run files of the finished cases of a campaign manifest (paths next to it)."""
+    try:
+        entries = _manifest_entries(json.loads(path.read_text()))
+    except (OSError, ValueError) as exc:
+        raise CompareError(f"{path}: not a readable JSON manifest ({exc})") from None
+    runs = [
+        path.parent / Path(str(e.get("path") or e.get("file") or f"{e['name']}.nc")).name
+        for e in entries
+        if e.get("status", "done") in ("done", "skipped") and (e.get("path") or e.get("name"))
+    ]
+    if not runs:
+        raise CompareError(f"{path}: no finished case in the manifest")
+    return runs
 
 
 def _match(entries: list[dict[str, Any]], ds: xr.Dataset, source: Any) -> dict[str, Any]:
@@ -154,8 +173,9 @@ def campaign_summary(
 
     Parameters
     ----------
-    runs : sequence of Dataset or path
-        The run files (or opened runs) of the campaign.
+    runs : sequence of Dataset or path, or a manifest path
+        The run files (or opened runs) of the campaign; or the campaign manifest
+        ``<campaign>.manifest.json`` alone: its finished cases, with its parameters.
     parameters : path, mapping, sequence of str or None
         Where the swept parameters come from (see the module docstring).
 
@@ -170,6 +190,10 @@ def campaign_summary(
     """
     if isinstance(runs, str | Path | xr.Dataset):
         runs = [runs]
+    runs = list(runs)
+    if len(runs) == 1 and not isinstance(runs[0], xr.Dataset) and str(runs[0]).endswith(".json"):
+        parameters = runs[0] if parameters is None else parameters
+        runs = _manifest_runs(Path(runs[0]))
     if not runs:
         raise CompareError("campaign-summary needs at least one run")
     datasets = [_open(r) for r in runs]
@@ -209,7 +233,7 @@ def campaign_summary(
                 ds.close()
     if matched is not None:
         for row, entry in zip(rows, matched, strict=True):
-            if "wall_time" in entry and not np.isfinite(row["wall_time"]):
+            if entry.get("wall_time") is not None and not np.isfinite(row["wall_time"]):
                 row["wall_time"] = float(entry["wall_time"])
     names = [case_name(ds) for ds in datasets]
     ids = [str(ds.attrs.get("case_id", "")) for ds in datasets]

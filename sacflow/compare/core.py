@@ -214,10 +214,8 @@ def build(
     metadata_of : mapping
         Variables (e.g. swept parameters) whose metadata is given here as a long name (units 1).
     """
-    ds = xr.Dataset(
-        {name: value if isinstance(value, tuple) else ((), value) for name, value in data_vars.items()},
-        coords=coords,
-    )
+    variables = {k: v if isinstance(v, tuple) else ((), v) for k, v in data_vars.items()}
+    ds = xr.Dataset(variables, coords=coords)
     extra = dict(metadata_of or {})
     for name in list(ds.variables):
         if name in extra:

@@ -1,0 +1,56 @@
+"""Eigenstrain operators: set-up and per-application times against the FFT floor.
+
+Usage: ``python benchmarks/eigenstrain.py [n1xn2xn3 ...]`` (default 32x32x16 64x64x32
+128x128x64). The floor is the time of twelve forward+inverse 3-D real FFTs of the padded
+(2 n1 × 2 n2 × 2 n3) grid with the same FFT back end and threads. Prints JSON.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+
+from _common import emit, isolated, timed
+
+
+def measure(shape: tuple[int, int, int]) -> dict:
+    import numpy as np
+
+    from sacflow.kernels.eigenstrain import HalfSpaceEigenstrain, kernel_bytes
+    from sacflow.kernels.fft import RealFFT
+
+    t0 = time.perf_counter()
+    op = HalfSpaceEigenstrain(shape, (1e-6, 1e-6, 0.5e-6), 210e9, 0.3)
+    setup = time.perf_counter() - t0
+    eps = np.random.default_rng(0).standard_normal((*shape, 6)) * 1e-3
+    t_stress, _ = timed(lambda: op.residual_stress(eps))
+    t_disp, _ = timed(lambda: op.residual_displacement(eps))
+    t_both, _ = timed(lambda: op.residual_stress(eps, with_displacement=True))
+    fft = RealFFT((1, *op.padded), 3)
+    fft.real[...] = np.random.default_rng(1).random(fft.shape)
+
+    def twelve_pairs():
+        for _ in range(12):
+            fft.forward()
+            fft.spectrum /= fft.size
+            fft.inverse()
+
+    t_floor, _ = timed(twelve_pairs)
+    return {
+        "cells": "x".join(map(str, shape)),
+        "padded_grid": "x".join(map(str, op.padded)),
+        "setup_s": round(setup, 3),
+        "residual_stress_s": round(t_stress, 4),
+        "residual_displacement_s": round(t_disp, 4),
+        "stress_and_displacement_s": round(t_both, 4),
+        "floor_12_fft_pairs_s": round(t_floor, 4),
+        "stress_over_floor": round(t_stress / t_floor, 2),
+        "displacement_over_floor": round(t_disp / t_floor, 2),
+        "kernel_memory_mb": round(kernel_bytes(shape) / 2**20, 1),
+    }
+
+
+if __name__ == "__main__":
+    shapes = [tuple(int(v) for v in a.split("x")) for a in sys.argv[1:]] or [
+        (32, 32, 16), (64, 64, 32), (128, 128, 64)]
+    emit("eigenstrain", [isolated(measure, s) for s in shapes])

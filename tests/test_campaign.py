@@ -1,0 +1,553 @@
+"""Campaigns: expansion, names and ids, error messages, dask runs, resume, failures, SIGKILL.
+
+The module-level simulation factories below are imported by the dask workers (spawned processes
+inherit ``sys.path``, so ``test_campaign`` is importable there), hence they live at top level.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import json
+import os
+import re
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import psutil
+import pytest
+from test_store import make_coords, make_state
+
+import sacflow.campaign as campaign_module
+from sacflow import runner
+from sacflow.campaign import (
+    case_names,
+    expand_campaign,
+    load_campaign,
+    run_campaign,
+)
+from sacflow.cli import main
+from sacflow.config import load_case
+from sacflow.errors import ConfigError, ConvergenceError
+from sacflow.schema import NAME_PATTERN, Case
+from sacflow.store import completed_steps, open_run
+
+ROOT = Path(__file__).resolve().parents[1]
+SMOKE = ROOT / "configs" / "campaign-smoke.toml"
+HERTZ = ROOT / "configs" / "hertz-elastic.toml"
+TESTS = Path(__file__).resolve().parent
+
+
+# --------------------------------------------------------------------------- fake simulations
+class FakeSimulation:
+    """Honours the Simulation contract with reproducible fake states; optional sleep per step.
+
+    Fails with a ConvergenceError at step 1 when the case's load is ``fail_load``.
+    """
+
+    def __init__(self, case: Case, sleep: float = 0.0, fail_load: float | None = None) -> None:
+        self.case = case
+        self.coords = make_coords(case)
+        self.total_steps = sum(getattr(s, "increments", 0) for s in case.load_path)
+        self.sleep = sleep
+        self.fail = fail_load is not None and case.max_load == fail_load
+
+    def run(self):
+        for step in range(self.total_steps):
+            time.sleep(self.sleep)
+            if self.fail and step == 1:
+                raise ConvergenceError("coupling", step, 2e-3, 1e-6, iterations=200)
+            yield make_state(step, self.coords, volume=step % 2 == 0)
+
+
+def fake_simulation(case: Case) -> FakeSimulation:
+    return FakeSimulation(case)
+
+
+def failing_simulation(case: Case) -> FakeSimulation:
+    """The case at 0.65 N does not converge at step 1."""
+    return FakeSimulation(case, fail_load=0.65)
+
+
+def slow_simulation(case: Case) -> FakeSimulation:
+    return FakeSimulation(case, sleep=float(os.environ.get("SACFLOW_TEST_SLEEP", "0.3")))
+
+
+# --------------------------------------------------------------------------- helpers
+def write(folder: Path, text: str, name: str = "study.toml") -> Path:
+    path = folder / name
+    path.write_text(text)
+    return path
+
+
+def campaign_text(sweep: str, base: str = 'base = "base.toml"', name: str = "study") -> str:
+    return f'name = "{name}"\n{base}\n{sweep}\n'
+
+
+@pytest.fixture
+def folder(tmp_path: Path) -> Path:
+    """A folder holding ``base.toml`` (the shipped Hertz case at 16 x 16 x 3 cells)."""
+    text = HERTZ.read_text()
+    text = re.sub(r"(?m)^nx = .*$", "nx = 16", text)
+    text = re.sub(r"(?m)^ny = .*$", "ny = 16", text)
+    text = re.sub(r"(?m)^nz = .*$", "nz = 3", text)
+    (tmp_path / "base.toml").write_text(text)
+    return tmp_path
+
+
+def fake_campaign(folder: Path, increments: int = 3, name: str = "fake") -> Path:
+    """Four cases (two loads x two radii) of ``increments`` steps, on a copy of base.toml."""
+    base = (folder / "base.toml").read_text()
+    base = re.sub(r"(?m)^increments = .*$", f"increments = {increments}", base)
+    (folder / f"{name}-base.toml").write_text(base)
+    sweep = (
+        '[[sweep]]\nmode = "product"\n'
+        'parameters = { "load_path.0.to" = [0.19, 0.65], "counterbody.radius" = [1e-4, 2e-4] }'
+    )
+    text = campaign_text(sweep, base=f'base = "{name}-base.toml"', name=name)
+    return write(folder, text, f"{name}.toml")
+
+
+def manifest(out: Path, name: str) -> dict:
+    return json.loads((out / f"{name}.manifest.json").read_text())
+
+
+def statuses(out: Path, name: str) -> dict[str, str]:
+    return {c["name"]: c["status"] for c in manifest(out, name)["cases"]}
+
+
+def assert_same_runs(a: Path, b: Path) -> None:
+    """Same data variables and values (bitwise), same case, both complete."""
+    da, db = open_run(a), open_run(b)
+    assert da.attrs["complete"] == db.attrs["complete"] == 1, f"{a.name} complete"
+    assert da.attrs["case_id"] == db.attrs["case_id"], a.name
+    assert sorted(da.data_vars) == sorted(db.data_vars), a.name
+    for name in da.data_vars:
+        np.testing.assert_array_equal(da[name].values, db[name].values, err_msg=f"{a.name}: {name}")
+
+
+def run_serially(campaign_path: Path, out: Path, factory=None, overrides=()) -> list[Path]:
+    """The campaign's cases one by one with runner.run_case (single-threaded FFTs)."""
+    cases = expand_campaign(load_campaign(campaign_path, overrides))
+    for c in cases:
+        runner.run_case(c.case, out, progress=False, simulation_factory=factory)
+    return [out / f"{c.name}.nc" for c in cases]
+
+
+# --------------------------------------------------------------------------- expansion
+def test_product_expansion_names_and_ids():
+    cases = expand_campaign(load_campaign(SMOKE))
+    loads, radii = [0.19, 0.4, 0.65], [105e-6, 200e-6]
+    assert [(c.case.max_load, c.case.counterbody.radius) for c in cases] == [
+        (w, r) for w in loads for r in radii
+    ], "product: the first parameter varies slowest"
+    assert [c.index for c in cases] == list(range(1, 7))
+    names = [c.name for c in cases]
+    assert names[0] == "campaign-smoke-to0.19-radius0.000105"
+    assert len(set(names)) == len(names), "names are unique"
+    assert all(re.match(NAME_PATTERN, n) for n in names), "names are file-name safe"
+    assert names == [c.name for c in expand_campaign(load_campaign(SMOKE))], "deterministic"
+    for c in cases:
+        digest = hashlib.sha256(c.case.canonical_json().encode()).hexdigest()[:12]
+        assert c.case_id == c.case.case_id == digest
+        assert c.parameters == {
+            "load_path.0.to": c.case.max_load,
+            "counterbody.radius": c.case.counterbody.radius,
+        }
+        assert "load_path.0.to=" in c.label()
+    assert len({c.case_id for c in cases}) == 6
+    assert all(c.case.grid.nx == 16 and c.case.body.hardening.law == "elastic" for c in cases)
+
+
+def test_zip_and_blocks_combine_as_a_product(folder):
+    sweep = """
+[[sweep]]
+mode = "zip"
+parameters = { "load_path.0.to" = [0.19, 0.4, 0.65], "load_path.0.increments" = [1, 2, 3] }
+[[sweep]]
+mode = "product"
+parameters = { "grid.nz" = [2, 4] }
+"""
+    cases = expand_campaign(load_campaign(write(folder, campaign_text(sweep))))
+    got = [(c.case.max_load, c.case.load_path[0].increments, c.case.grid.nz) for c in cases]
+    assert got == [(0.19, 1, 2), (0.19, 1, 4), (0.4, 2, 2), (0.4, 2, 4), (0.65, 3, 2), (0.65, 3, 4)]
+    assert cases[0].name == "study-to0.19-increments1-nz2"
+
+
+def test_base_file_is_relative_to_the_campaign_and_set_applies_to_the_base(folder, monkeypatch):
+    sweep = '[[sweep]]\nmode = "product"\nparameters = { "grid.nx" = [16, 32] }'
+    path = write(folder, campaign_text(sweep))
+    monkeypatch.chdir(folder.parent)
+    campaign = load_campaign(path, ["grid.nz=5", 'description="set"'])
+    cases = expand_campaign(campaign)
+    assert [c.case.grid.nx for c in cases] == [16, 32]
+    assert all(c.case.grid.nz == 5 and c.case.description == "set" for c in cases)
+    assert cases[0].case.counterbody.radius == 105e-6, "values from base.toml"
+    reference = load_case(folder / "base.toml", ["grid.nz=5", 'description="set"', 'name="x"'])
+    assert cases[0].case.model_copy(update={"name": "x"}) == reference
+
+
+def test_case_names_are_short_unique_and_safe():
+    rows = [{"body.E": 2.1e11, "counterbody.E": 2e-5}, {"body.E": 2.1e11, "counterbody.E": 1e20}]
+    assert case_names("c", rows) == [
+        "c-body.E210000000000-counterbody.E2e-5",
+        "c-body.E210000000000-counterbody.E1e20",
+    ]
+    rows = [{"load_path.0.to": 1.0, "load_path.1.to": 0.5, "grid.nx": 32}]
+    assert case_names("c", rows) == ["c-load_path.0.to1-load_path.1.to0.5-nx32"]
+    rows = [{"description": "a b"}, {"description": "a/b"}, {"description": "ok"}]
+    names = case_names("c", rows)
+    assert names[2] == "c-descriptionok" and len(set(names)) == 3, "collisions get a digest"
+    assert all(re.match(NAME_PATTERN, n) for n in names)
+    rows = [{"body.radii": [1e-3, float("inf")], "body.hardening": {"law": "elastic"}}]
+    (name,) = case_names("c", rows)
+    assert name.startswith("c-radii0.001xinf-hardeningh") and re.match(NAME_PATTERN, name)
+    long = case_names("c", [{"description": "x" * 300}])[0]
+    assert len(long) <= campaign_module.MAX_NAME and re.match(NAME_PATTERN, long)
+    assert long != case_names("c", [{"description": "x" * 301}])[0]
+
+
+# --------------------------------------------------------------------------- invalid campaigns
+def config_error(path: Path) -> str:
+    with pytest.raises(ConfigError) as info:
+        load_campaign(path)
+    message = str(info.value)
+    assert message.startswith(f"{path}: invalid campaign"), message
+    assert len(message.splitlines()) <= campaign_module.MAX_PROBLEMS + 2, "one screen"
+    return message
+
+
+@pytest.mark.parametrize(
+    ("sweep", "expected"),
+    [
+        (
+            'mode = "zip"\nparameters = { "load_path.0.to" = [0.1, 0.2], "grid.nx" = [16] }',
+            "sweep.0.parameters: zip needs lists of equal length "
+            "(got load_path.0.to: 2, grid.nx: 1)",
+        ),
+        (
+            'mode = "product"\nparameters = { "grid.nxx" = [16] }',
+            "sweep.0.parameters.\"grid.nxx\": grid has no field 'nxx', did you mean 'nx'?",
+        ),
+        (
+            'mode = "product"\nparameters = { "load_path.to" = [1.0] }',
+            'sweep.0.parameters."load_path.to": load_path is a list; use an index',
+        ),
+        (
+            'mode = "product"\nparameters = { "grid.nx.y" = [1] }',
+            "grid.nx is a value, not a table",
+        ),
+        (
+            'mode = "product"\nparameters = { "load_path.0.to" = [0.19, -1, 0.65] }',
+            "case 2 (load_path.0.to=-1): load_path.0.to: must be > 0",
+        ),
+        (
+            'mode = "product"\nparameters = { "load_path.3.to" = [0.19] }',
+            "load_path.3.to: load_path is a list of 1 items",
+        ),
+        ('mode = "sum"\nparameters = { "grid.nx" = [16] }', "sweep.0.mode: must be 'product'"),
+        (
+            'mode = "zip"\nparameters = { "grid.nx" = 16 }',
+            'sweep.0.parameters."grid.nx": expected a list',
+        ),
+        ('mode = "zip"\nparameters = { "grid.nx" = [16, 16] }', "cases 1 and 2 have the same"),
+        ('mode = "zip"\nparameters = { name = ["a"] }', '"name" cannot be swept'),
+        ('mode = "zip"\nparameters = { grid = [{nx = 16}], "grid.nz" = [2] }', "overlaps"),
+        ('mode = "zip"\nparameters = { }', "sweep.0.parameters: needs at least one parameter"),
+    ],
+)
+def test_invalid_sweeps_name_the_field(folder, sweep, expected):
+    message = config_error(write(folder, campaign_text(f"[[sweep]]\n{sweep}")))
+    assert expected in message, message
+
+
+def test_invalid_campaign_fields_and_base(folder):
+    sweep = '[[sweep]]\nmode = "product"\nparameters = { "grid.nx" = [16] }'
+    message = config_error(write(folder, campaign_text(sweep, base='base = "nowhere.toml"')))
+    assert "base: case file 'nowhere.toml' not found" in message
+    assert str(folder / "nowhere.toml") in message, "says where it looked"
+
+    text = 'name = "bad name"\nbase = 3\nsweeps = 1\n' + sweep
+    message = config_error(write(folder, text))
+    assert "name: must start with a letter or digit" in message
+    assert "base: expected a case file path or an inline [base] table; got 3" in message
+    assert "sweeps: unknown key, did you mean 'sweep'?" in message
+    assert len(message.splitlines()) == 4, "one line per problem, no duplicates"
+
+    message = config_error(write(folder, 'name = "x"\nbase = "base.toml"\n'))
+    assert "sweep: required field missing" in message
+
+
+def test_a_problem_of_every_case_is_reported_once(folder):
+    sweep = '[[sweep]]\nmode = "product"\nparameters = { "load_path.0.to" = [0.1, 0.2, -3] }'
+    path = write(folder, campaign_text(sweep))
+    with pytest.raises(ConfigError) as info:
+        load_campaign(path, ["grid.nx=4"])
+    lines = str(info.value).splitlines()
+    assert lines[1].strip().startswith("base (all cases): grid.nx: must be >= 8"), lines
+    assert sum("grid.nx" in line for line in lines) == 1
+    assert any(line.strip().startswith("case 3 (load_path.0.to=-3):") for line in lines)
+
+
+def test_cli_reports_a_bad_campaign_without_traceback(folder, capsys):
+    sweep = '[[sweep]]\nmode = "zip"\nparameters = { "grid.nz" = [2, 3], "grid.nx" = [16] }'
+    path = write(folder, campaign_text(sweep))
+    assert main(["campaign", str(path), "--out", str(folder / "out")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: ") and "zip needs lists of equal length" in err
+    assert "Traceback" not in err and not (folder / "out").exists()
+    assert main(["campaign", str(SMOKE), "--out", str(folder / "out"), "--workers", "0"]) == 2
+    assert "--workers" in capsys.readouterr().err
+
+
+# --------------------------------------------------------------------------- running (dask)
+def test_local_cluster_matches_serial_runs_and_skips_on_rerun(tmp_path, monkeypatch):
+    """Real solver: 2 workers give the files run_case gives one by one; a re-run runs nothing."""
+    out = tmp_path / "campaign"
+    summary = run_campaign(load_campaign(SMOKE), out, workers=2, progress=False)
+    assert summary.counts() == {"done": 6, "skipped": 0, "failed": 0}, summary.table()
+    assert summary.workers == 2 and not summary.failed
+    assert [p.name for p in sorted(out.glob("*.nc"))] == sorted(p.name for p in summary.paths)
+    data = manifest(out, "campaign-smoke")
+    assert [c["status"] for c in data["cases"]] == ["done"] * 6
+    assert all(c["steps"] == 1 and c["error"] is None for c in data["cases"])
+    assert data["cases"][0]["parameters"] == {"load_path.0.to": 0.19, "counterbody.radius": 105e-6}
+
+    monkeypatch.setenv("SACFLOW_FFT_THREADS", "1")
+    serial = run_serially(SMOKE, tmp_path / "serial")
+    for path in serial:
+        assert_same_runs(out / path.name, path)
+
+    mtimes = {p: p.stat().st_mtime_ns for p in out.glob("*.nc")}
+    again = run_campaign(load_campaign(SMOKE), out, workers=2, progress=False)
+    assert again.counts() == {"done": 0, "skipped": 6, "failed": 0} and again.workers == 0
+    assert {p: p.stat().st_mtime_ns for p in out.glob("*.nc")} == mtimes, "nothing rewritten"
+    assert set(statuses(out, "campaign-smoke").values()) == {"skipped"}
+    assert "6 skipped" in again.table()
+
+
+def test_failed_case_is_recorded_others_finish_exit_code_1(folder, capsys, monkeypatch):
+    """Through the CLI: one case raises, the others finish; a fixed re-run resumes that one."""
+    path = fake_campaign(folder)
+    out = folder / "out"
+    monkeypatch.setattr(
+        campaign_module,
+        "run_campaign",
+        functools.partial(run_campaign, simulation_factory=failing_simulation),
+    )
+    args = ["campaign", str(path), "--out", str(out), "--workers", "2", "--no-progress"]
+    assert main(args) == 1
+    captured = capsys.readouterr()
+    data = manifest(out, "fake")
+    failed = [c for c in data["cases"] if c["status"] == "failed"]
+    assert [c["parameters"]["load_path.0.to"] for c in failed] == [0.65, 0.65]
+    assert all("coupling iteration did not converge at step 1" in c["error"] for c in failed)
+    assert all(c["wall_time"] is not None and c["traceback"] is None for c in failed)
+    assert data["counts"] == {"done": 2, "failed": 2}
+    for c in data["cases"]:
+        assert (out / c["path"]).exists() == (c["status"] == "done"), c["name"]
+    assert "2 done, 0 skipped, 2 failed" in captured.out
+    rows = {line.split()[1]: line for line in captured.out.splitlines()[1:-1]}
+    assert all(" failed " in rows[c["name"]] for c in failed), captured.out
+    assert f"error: {failed[0]['name']}: coupling iteration" in captured.err
+
+    monkeypatch.setattr(
+        campaign_module,
+        "run_campaign",
+        functools.partial(run_campaign, simulation_factory=fake_simulation),
+    )
+    assert main(args) == 0
+    data = manifest(out, "fake")
+    by_status = {c["name"]: (c["status"], c["resumed_steps"]) for c in data["cases"]}
+    for c in failed:
+        assert by_status[c["name"]] == ("done", 1), "resumed after the stored step"
+    assert sorted(s for s, _ in by_status.values()) == ["done", "done", "skipped", "skipped"]
+
+
+def test_unexpected_errors_keep_their_traceback(folder):
+    out = folder / "out"
+    summary = run_campaign(
+        load_campaign(fake_campaign(folder)),
+        out,
+        workers=1,
+        progress=False,
+        simulation_factory=broken_simulation,
+    )
+    assert len(summary.failed) == 4
+    record = summary.failed[0]
+    assert record.error == "ZeroDivisionError: division by zero"
+    assert "broken_simulation" in record.traceback
+
+
+def broken_simulation(case: Case) -> FakeSimulation:
+    return 1 / 0
+
+
+def _campaign_process(path: Path, out: Path) -> subprocess.Popen:
+    """``sacflow campaign`` in a subprocess, with the slow fake simulation."""
+    script = (
+        "import functools, sys\n"
+        "import sacflow.campaign as c, test_campaign as t\n"
+        "c.run_campaign = functools.partial(c.run_campaign, simulation_factory=t.slow_simulation)\n"
+        "from sacflow.cli import main\n"
+        "sys.exit(main(sys.argv[1:]))\n"
+    )
+    env = {
+        **os.environ,
+        "PYTHONPATH": os.pathsep.join([str(TESTS), os.environ.get("PYTHONPATH", "")]),
+    }
+    args = ["campaign", str(path), "--out", str(out), "--workers", "2", "--no-progress"]
+    return subprocess.Popen(
+        [sys.executable, "-c", script, *args],
+        env=env,
+        cwd=path.parent,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+
+
+@pytest.mark.slow
+def test_sigkill_then_rerun_completes_without_recomputing(folder):
+    """Kill the campaign process part-way (SIGKILL); the re-run finishes the rest only."""
+    path = fake_campaign(folder, increments=4)
+    out = folder / "out"
+    proc = _campaign_process(path, out)
+    deadline = time.monotonic() + 90
+    while time.monotonic() < deadline:
+        done = [n for n, s in statuses(out, "fake").items() if s == "done"] if out.exists() else []
+        if done or proc.poll() is not None:
+            break
+        time.sleep(0.05)
+    assert proc.poll() is None, f"finished before the kill: {proc.communicate()}"
+    children = psutil.Process(proc.pid).children(recursive=True)
+    proc.send_signal(signal.SIGKILL)
+    proc.communicate()
+    _, alive = psutil.wait_procs(children, timeout=20)
+    for child in alive:
+        child.kill()
+    assert not alive, "the workers stop when the campaign process dies"
+
+    before = statuses(out, "fake")
+    finished = {n for n, s in before.items() if s == "done"}
+    assert 1 <= len(finished) < 4, before
+    mtimes = {n: (out / f"{n}.nc").stat().st_mtime_ns for n in finished}
+    stored = {n: completed_steps(out / f"{n}.nc") for n in before if n not in finished}
+    for name in before:  # nothing corrupt: finished files and stored steps all open
+        if name in finished:
+            ds = open_run(out / f"{name}.nc")
+            assert ds.attrs["complete"] == 1 and ds.sizes["step"] == 4, name
+        elif stored[name]:
+            ds = open_run(out / f"{name}.nc")
+            assert ds.attrs["complete"] == 0 and ds.sizes["step"] == stored[name], name
+    assert any(stored.values()) or len(finished) > 1, "killed mid-case or after several"
+
+    proc = _campaign_process(path, out)
+    stdout, stderr = proc.communicate(timeout=120)
+    assert proc.returncode == 0, stderr
+    data = manifest(out, "fake")
+    for c in data["cases"]:
+        if c["name"] in finished:
+            assert c["status"] == "skipped", c
+            assert (out / c["path"]).stat().st_mtime_ns == mtimes[c["name"]], "not recomputed"
+        else:
+            assert c["status"] == "done" and c["resumed_steps"] == stored[c["name"]], c
+    assert not list(out.glob("*.parts")) and not list(out.glob(".*.tmp"))
+
+    serial = run_serially(path, folder / "serial", factory=fake_simulation)
+    for reference in serial:
+        assert_same_runs(out / reference.name, reference)
+
+
+# --------------------------------------------------------------------------- external cluster
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture
+def dask_cluster():
+    """``dask scheduler`` and ``dask worker`` (2 processes) on 127.0.0.1, as subprocesses."""
+    from distributed import Client
+
+    dask = shutil.which("dask")
+    if dask is None:
+        pytest.skip("the dask command line is not installed")
+    address = f"tcp://127.0.0.1:{_free_port()}"
+    quiet = {"stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL}
+    procs = []
+    try:
+        procs.append(
+            subprocess.Popen(
+                [
+                    dask,
+                    "scheduler",
+                    "--host",
+                    "127.0.0.1",
+                    "--port",
+                    address.rsplit(":", 1)[1],
+                    "--no-dashboard",
+                ],
+                **quiet,
+            )
+        )
+        procs.append(
+            subprocess.Popen(
+                [
+                    dask,
+                    "worker",
+                    address,
+                    "--nworkers",
+                    "2",
+                    "--nthreads",
+                    "1",
+                    "--no-dashboard",
+                    "--host",
+                    "127.0.0.1",
+                ],
+                **quiet,
+            )
+        )
+        with Client(address, timeout="30s") as client:
+            client.wait_for_workers(2, timeout=60)
+        yield address
+    finally:
+        for proc in reversed(procs):
+            proc.terminate()
+        for proc in procs:
+            try:
+                proc.wait(timeout=15)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()
+
+
+@pytest.mark.slow
+def test_external_scheduler_gives_the_same_results(tmp_path, dask_cluster, monkeypatch):
+    out = tmp_path / "campaign"
+    summary = run_campaign(load_campaign(SMOKE), out, scheduler=dask_cluster, progress=False)
+    assert summary.counts()["done"] == 6 and summary.workers == 2, summary.table()
+    monkeypatch.setenv("SACFLOW_FFT_THREADS", "1")
+    for path in run_serially(SMOKE, tmp_path / "serial"):
+        assert_same_runs(out / path.name, path)
+
+
+def test_workers_and_scheduler_exclude_each_other(tmp_path, capsys):
+    args = ["campaign", str(SMOKE), "--out", str(tmp_path), "--scheduler", "tcp://127.0.0.1:1"]
+    assert main([*args, "--workers", "2"]) == 2
+    assert "--workers" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_unreachable_scheduler_is_a_clear_error(tmp_path, capsys):
+    address = f"tcp://127.0.0.1:{_free_port()}"
+    args = ["campaign", str(SMOKE), "--out", str(tmp_path), "--scheduler", address]
+    assert main(args) == 1
+    assert f"cannot connect to the dask scheduler at {address}" in capsys.readouterr().err
