@@ -291,6 +291,11 @@ class Load(Model):
     kind: Literal["load"] = "load"
     to: PositiveFloat = Field(description="normal load at the end of the segment [N]")
     increments: PositiveInt = Field(description="number of load increments")
+    at: tuple[FiniteFloat, FiniteFloat] | None = Field(
+        None,
+        description="load position (x1, x2) in the body frame [m] for this segment; "
+        "default: where the load already is (initially the origin)",
+    )
 
 
 class Unload(Model):

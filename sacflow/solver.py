@@ -14,9 +14,11 @@ evaluation. At convergence the seed's two criteria hold: the plastic strain incr
 residual displacement increment have stopped changing, and von Mises = σ_Y on plastic points.
 
 Load paths: ``load`` / ``unload`` segments change the normal load in equal increments, ``hold``
-repeats it; ``roll`` moves the load over the body-fixed grid by whole cells (the plastic strain,
+repeats it; ``roll`` moves the load over the body-fixed grid (the plastic strain,
 hardening and residual fields stay with the body; the curvature term of the gap moves with the
-load, dents and measured surfaces stay with the body).
+load, dents and measured surfaces stay with the body). Load positions are exact (a roll step may
+be a fraction of a cell): the gap is evaluated at the exact position, only the contact window is
+placed on the nearest whole cell of the body grid.
 """
 
 from __future__ import annotations
@@ -64,12 +66,19 @@ class Increment:
     plasticity_iterations: int
 
 
-def plan_steps(load_path, cell: tuple[float, float]) -> list[StepPlan]:
-    """Expand load-path segments into increments (roll steps snapped to whole cells)."""
+def plan_steps(load_path) -> list[StepPlan]:
+    """Expand load-path segments into increments (load positions exact, not snapped to cells)."""
     steps: list[StepPlan] = []
     load, pos = 0.0, (0.0, 0.0)
     for index, seg in enumerate(load_path):
         if seg.kind in ("load", "unload"):
+            if getattr(seg, "at", None) is not None:
+                if load > 0.0 and tuple(seg.at) != pos:
+                    raise SacflowError(
+                        f"load_path.{index}.at: the load cannot jump while loaded; "
+                        "use a roll segment to move it"
+                    )
+                pos = (float(seg.at[0]), float(seg.at[1]))
             start = load
             for k in range(1, seg.increments + 1):
                 load = start + (seg.to - start) * k / seg.increments
@@ -84,7 +93,7 @@ def plan_steps(load_path, cell: tuple[float, float]) -> list[StepPlan]:
                     start[0] + seg.distance * seg.direction[0] * frac,
                     start[1] + seg.distance * seg.direction[1] * frac,
                 )
-                pos = (round(target[0] / cell[0]) * cell[0], round(target[1] / cell[1]) * cell[1])
+                pos = target
                 steps.append(StepPlan(index, load, pos))
     return steps
 
@@ -139,7 +148,7 @@ class Simulation:
         hertz = case.hertz()
         self.hertz = hertz
         self.cell = case.cell_size()
-        self.steps = plan_steps(case.load_path, self.cell)
+        self.steps = plan_steps(case.load_path)
         self.total_steps = len(self.steps)
         # Body grid: the contact window swept along the rolled track.
         nx, ny = case.grid.nx, case.grid.ny
@@ -147,7 +156,7 @@ class Simulation:
         cells = np.rint(pos / np.array(self.cell)).astype(int)
         lo, hi = cells.min(axis=0), cells.max(axis=0)
         self.window = (nx, ny)
-        self.body_shape = (nx + hi[0] - lo[0], ny + hi[1] - lo[1])
+        self.body_shape = (int(nx + hi[0] - lo[0]), int(ny + hi[1] - lo[1]))
         self._origin_cells = -lo  # body index of the window corner when the load is at 0
         dx1, dx2 = self.cell
         x1 = (np.arange(self.body_shape[0]) + lo[0] - nx / 2 + 0.5) * dx1

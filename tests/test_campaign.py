@@ -446,6 +446,7 @@ def test_sigkill_then_rerun_completes_without_recomputing(folder):
         elif stored[name]:
             ds = open_run(out / f"{name}.nc")
             assert ds.attrs["complete"] == 0 and ds.sizes["step"] == stored[name], name
+    print("KILL", finished, stored)
     assert any(stored.values()) or len(finished) > 1, "killed mid-case or after several"
 
     proc = _campaign_process(path, out)
