@@ -94,15 +94,15 @@ def solve_contact(
         return ContactResult(zero, zero, h - h.min(), 0.0, 0.0, 0, 0.0)
     if initial_pressure is not None and np.any(initial_pressure > 0):
         p = np.maximum(np.asarray(initial_pressure, dtype=float), 0.0).copy()
+    elif load_control:
+        p = np.ones_like(h)  # uniform start: the iteration shrinks the contact set
     else:
-        p = np.zeros_like(h)
-        seed = h <= np.min(h) + 1e-3 * (np.ptp(h) + 1e-300)
-        p[seed] = 1.0
+        p = np.where(h < approach, 1.0, 0.0)  # start from the geometric overlap
+        if not p.any():
+            zero = np.zeros_like(h)
+            return ContactResult(zero, zero, h - approach, float(approach), 0.0, 0, 0.0)
     if load_control:
         p *= load / (cell_area * p.sum())
-    elif initial_pressure is None:
-        p[:] = 0.0
-        p[h < approach] = 1e-6  # start from the geometric overlap
 
     t = np.zeros_like(h)
     g_norm_old = 1.0
@@ -162,7 +162,7 @@ def solve_contact(
         else:
             u = compliance(p)
             exact_age = 0
-        if change < tol:
+        if change < tol and not np.any(overlap):
             break
     else:
         raise ConvergenceError(

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["DepthScaled", "Elastic", "HardeningLaw", "Linear", "PerfectlyPlastic",
-           "ReturnMappingError", "ReturnResult", "Swift", "Tabular", "deviator",
+           "ReturnMappingError", "ReturnResult", "ReturnTangent", "Swift", "Tabular", "deviator",
            "double_contraction", "equivalent_strain", "hardening_from_schema", "radial_return",
            "von_mises"]
 
@@ -358,3 +358,44 @@ def radial_return(trial_stress, eqps, law: HardeningLaw, mu: float, depth=None,
     stress = np.where(plastic.reshape(-1, 1), new, sig2)
     return ReturnResult(stress.reshape(sig.shape), dep.reshape(sig.shape), dp_all.reshape(lead),
                         plastic, iterations)
+
+
+class ReturnTangent:
+    """Derivative of the radial-return plastic strain increment with respect to the trial stress.
+
+    For a plastic point with flow direction N = 3/2 s_tr/q_tr, Δp and slope H = σ_Y'(p + Δp),
+    differentiating Δεp = Δp N with q_tr − 3μΔp − σ_Y(p + Δp) = 0 gives (Simo & Hughes 1998,
+    §3.3.2, the algorithmic tangent)
+
+        dΔεp = N (N:dσ) / (3μ + H) + (Δp / q_tr) (3/2 dσ_dev − N (N:dσ)),
+
+    and zero at elastic points. Used by the solver's Newton–Krylov iteration.
+    """
+
+    def __init__(self, trial_stress, result: ReturnResult, eqps, law: HardeningLaw, mu: float,
+                 depth=None):
+        plastic = result.plastic
+        self.index = np.flatnonzero(plastic.reshape(-1))
+        lead = plastic.shape
+        trial = np.asarray(trial_stress, float).reshape(-1, 6)[self.index]
+        s = deviator(trial)
+        q = np.sqrt(1.5 * double_contraction(s, s))
+        dp = result.eqps_increment.reshape(-1)[self.index]
+        p = np.broadcast_to(np.asarray(eqps, float), lead).reshape(-1)[self.index]
+        d = None if depth is None else np.broadcast_to(
+            np.asarray(depth, float), lead).reshape(-1)[self.index]
+        slope = law.slope(p + dp, d)
+        self.N = 1.5 * s / q[:, None]
+        self.a = 1.0 / (3.0 * mu + slope)
+        self.b = dp / q
+        self.shape = plastic.shape + (6,)
+
+    def apply(self, dsigma: np.ndarray) -> np.ndarray:
+        """Return dΔεp (shape of the trial stress) for a stress perturbation ``dsigma``."""
+        out = np.zeros(self.shape).reshape(-1, 6)
+        if self.index.size:
+            ds = np.asarray(dsigma, float).reshape(-1, 6)[self.index]
+            nd = double_contraction(self.N, ds)
+            out[self.index] = (self.N * ((self.a - self.b) * nd)[:, None]
+                               + 1.5 * self.b[:, None] * deviator(ds))
+        return out.reshape(self.shape)

@@ -23,12 +23,14 @@ placed on the nearest whole cell of the body grid.
 
 from __future__ import annotations
 
+import logging
 import math
 import warnings
 from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.sparse.linalg import LinearOperator, gmres
 
 from sacflow.anderson import AndersonMixer
 from sacflow.contact import ContactResult, solve_contact
@@ -37,11 +39,19 @@ from sacflow.geometry import curvature_gap, features_gap
 from sacflow.kernels.eigenstrain import HalfSpaceEigenstrain
 from sacflow.kernels.fft import Convolution
 from sacflow.kernels.surface import rectangle_displacement, rectangle_stress
-from sacflow.plasticity import Elastic, hardening_from_schema, radial_return, von_mises
+from sacflow.plasticity import (
+    Elastic,
+    ReturnTangent,
+    hardening_from_schema,
+    radial_return,
+    von_mises,
+)
 from sacflow.reference import composite_modulus, hertz_axis_stress
 from sacflow.state import GridCoords, State
 
 __all__ = ["Simulation", "StepPlan", "plan_steps"]
+
+log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -270,35 +280,95 @@ class Simulation:
         if not self.plastic:
             result = solve(self.residual_displacement)
             return Increment(sl, geometry, result, None, contact_iterations, 0)
-        shape = self.plastic_strain.shape
-        depth = self.coords.x3
-        mixer = AndersonMixer(opts.anderson_depth if opts.acceleration == "anderson" else 0)
-        x = np.zeros(shape)
+        # Outer loop (seed Fig. 5): contact on the geometry updated by the residual
+        # displacement <-> plastic strain increment for that pressure (seed Fig. 4), solved by
+        # semismooth Newton–Krylov (Frérot et al., CMAME 351 (2019) 951).
+        x = np.zeros(self.plastic_strain.shape)
+        u_old = self.residual_displacement
+        u_used = u_old
+        newton_total = 0
+        floor = 1e-300
+        depth = opts.anderson_depth if opts.acceleration == "anderson" else 0
+        mixer = AndersonMixer(depth)  # on the residual displacement (the seed's loop variable)
+        for _ in range(opts.coupling_max_iterations):
+            result = solve(u_used)
+            sig_pr = self._pressure_stress(result.pressure, sl)
+            x, dp, n_newton = self._plastic_newton(sig_pr, x, step)
+            newton_total += n_newton
+            if not dp.any():
+                return Increment(sl, geometry, result, (x, dp), contact_iterations, newton_total)
+            u_new = self.eigen.residual_displacement(self.plastic_strain + x)
+            scale = max(np.abs(u_new - u_old).max(), floor)
+            change = float(np.abs(u_new - u_used).max() / scale)
+            log.debug("step %d coupling: residual displacement change %.3e", step, change)
+            if change < opts.coupling_tolerance:
+                return Increment(sl, geometry, result, (x, dp), contact_iterations, newton_total)
+            u_used = mixer.step(u_used.ravel(), u_new.ravel()).reshape(u_new.shape)
+        raise ConvergenceError("coupling", step=step, residual=change,
+                               tolerance=opts.coupling_tolerance,
+                               iterations=opts.coupling_max_iterations)
+
+    def _plastic_newton(self, sig_pr: np.ndarray, x: np.ndarray, step: int):
+        """Plastic strain increment for a given pressure stress (seed Fig. 4).
+
+        Solves ``x = G(x) = Δεp_return(σ^pr + σ^r(εp_old + x) + 2μ x)``. Fixed-point (Picard)
+        sweeps are used while they contract fast (residual at least halved per sweep: one
+        residual-stress application each); then semismooth Newton: the Jacobian
+        ``I − T (A + 2μ)`` (``T`` the algorithmic tangent of the return, ``A`` the residual-stress
+        operator) is inverted matrix-free by GMRES, with a backtracking line search on the
+        max-norm residual. Returns ``(Δεp, Δp, residual-stress applications)``.
+        """
+        opts = self.case.solver
         tol = opts.plasticity_tolerance
-        floor = 1e-14
-        best = np.inf
-        u_prev = None
-        for iteration in range(1, opts.plasticity_max_iterations + 1):
-            eps = self.plastic_strain + x
-            sig_r, u_box = self.eigen.residual_stress(eps, with_displacement=True)
-            result = solve(u_box)
-            sig = self._pressure_stress(result.pressure, sl) + sig_r
-            trial = sig + 2.0 * self.mu * x
-            ret = radial_return(trial, self.eqps, self.law, self.mu, depth=depth)
+        depth, mu, eqps = self.coords.x3, self.mu, self.eqps
+        shape = x.shape
+        n = x.size
+        applications = 0
+
+        def evaluate(x):
+            nonlocal applications
+            applications += 1
+            trial = sig_pr + self.eigen.residual_stress(self.plastic_strain + x) + 2.0 * mu * x
+            ret = radial_return(trial, eqps, self.law, mu, depth=depth)
             gx = ret.plastic_strain_increment
-            scale = max(np.abs(gx).max(), np.abs(x).max(), floor)
-            change = float(np.abs(gx - x).max() / scale)
-            du = (
-                float(np.abs(u_box - u_prev).max() / max(np.abs(u_box).max(), floor))
-                if u_prev is not None else np.inf
-            )
-            u_prev = u_box
-            best = min(best, change)
-            if change < tol and (du < opts.coupling_tolerance or np.abs(gx).max() == 0.0):
-                return Increment(sl, geometry, result, (gx, ret.eqps_increment),
-                                 contact_iterations, iteration)
-            x = mixer.step(x.ravel(), gx.ravel()).reshape(shape)
-        raise ConvergenceError("plasticity", step=step, residual=best, tolerance=tol,
+            res = float(np.abs(gx - x).max() / max(np.abs(gx).max(), np.abs(x).max(), 1e-300))
+            return trial, ret, res
+
+        def jacobian_apply(tangent):
+            def matvec(v):
+                nonlocal applications
+                applications += 1
+                v = v.reshape(shape)
+                return (v - tangent.apply(self.eigen.residual_stress(v) + 2.0 * mu * v)).ravel()
+            return LinearOperator((n, n), matvec=matvec, dtype=float)
+
+        trial, ret, res = evaluate(x)
+        newton, res_prev = False, np.inf
+        for iteration in range(1, opts.plasticity_max_iterations + 1):
+            if res < tol or (not ret.plastic.any() and not x.any()):
+                return ret.plastic_strain_increment, ret.eqps_increment, applications
+            newton = newton or res > 0.5 * res_prev
+            res_prev = res
+            if not newton:
+                x = ret.plastic_strain_increment
+                trial, ret, res = evaluate(x)
+                log.debug("step %d sweep %d: residual %.3e", step, iteration, res)
+                continue
+            tangent = ReturnTangent(trial, ret, eqps, self.law, mu, depth)
+            f = (ret.plastic_strain_increment - x).ravel()
+            delta, _ = gmres(jacobian_apply(tangent), f, rtol=max(min(0.1, res), 1e-4),
+                             atol=0.0, restart=30, maxiter=4)
+            step_length = 1.0
+            for _ in range(6):
+                x_try = x + step_length * delta.reshape(shape)
+                trial_t, ret_t, res_t = evaluate(x_try)
+                if res_t < res or step_length < 0.05:
+                    break
+                step_length *= 0.5
+            log.debug("step %d newton %d: residual %.3e -> %.3e (step length %.3g, %d plastic)",
+                      step, iteration, res, res_t, step_length, int(ret_t.plastic.sum()))
+            x, trial, ret, res = x_try, trial_t, ret_t, res_t
+        raise ConvergenceError("plasticity", step=step, residual=res, tolerance=tol,
                                iterations=opts.plasticity_max_iterations)
 
     # ------------------------------------------------------------------ driver

@@ -73,8 +73,16 @@ def tensor(coords: GridCoords, **components: np.ndarray) -> np.ndarray:
 
 def state(step: int, load: float, **kw) -> State:
     """A State with zero defaults for the scalars not given."""
-    scalars = dict(segment=0, approach=0.0, load_x1=0.0, load_x2=0.0, contact_area=0.0,
-                   max_pressure=0.0, contact_iterations=1, plasticity_iterations=0)
+    scalars = dict(
+        segment=0,
+        approach=0.0,
+        load_x1=0.0,
+        load_x2=0.0,
+        contact_area=0.0,
+        max_pressure=0.0,
+        contact_iterations=1,
+        plasticity_iterations=0,
+    )
     surface, volume = kw.pop("surface", {}), kw.pop("volume", {})
     scalars.update(kw)
     return State(step=step, load=load, surface=surface, volume=volume, **scalars)
@@ -131,8 +139,16 @@ def hertz_run(path: Path, case: Case, pressure_factor: float = 1.0) -> xr.Datase
     for k, load in enumerate(np.linspace(0, case.max_load, 5)[1:]):
         h = hertz_contact(load, ref.radius, ref.e_star)
         p = hertz_pressure(np.hypot(x1, x2), h.a, h.p0) * pressure_factor
-        states.append(state(k, load, approach=h.approach, contact_area=math.pi * h.a**2,
-                            max_pressure=p.max(), surface={"pressure": p}))
+        states.append(
+            state(
+                k,
+                load,
+                approach=h.approach,
+                contact_area=math.pi * h.a**2,
+                max_pressure=p.max(),
+                surface={"pressure": p},
+            )
+        )
     return write_run(path, case, coords, states)
 
 
@@ -184,8 +200,8 @@ def indentation_run(path: Path, case: Case) -> tuple[xr.Dataset, GridCoords]:
     ):
         volume = {
             "equivalent_plastic_strain": factor * eps_depth(x3) * lateral,
-            "residual_stress": factor * tensor(coords, s11=s11_depth(x3) * lateral,
-                                               s33=s33_depth(x3) * lateral),
+            "residual_stress": factor
+            * tensor(coords, s11=s11_depth(x3) * lateral, s33=s33_depth(x3) * lateral),
         }
         surface = {"residual_displacement": factor * 80e-9 * np.exp(-r2 / (3e-6) ** 2)}
         states.append(state(k, load, segment=seg, surface=surface, volume=volume))
@@ -202,16 +218,29 @@ def test_indentation_profiles_known_fields(tmp_path, nano_case):
         for offset, lateral in ((0.0, 1.0), (2e-6, 1.2)):
             at = result.sel(when=when, offset=offset)
             msg = f"{when}, offset {offset}"
-            assert_allclose(at.equivalent_plastic_strain, factor * lateral * eps_depth(x3),
-                            rtol=1e-10, err_msg=msg)
-            assert_allclose(at.residual_stress_11, factor * lateral * s11_depth(x3), rtol=1e-10,
-                            err_msg=msg)
-            assert_allclose(at.residual_stress_33, factor * lateral * s33_depth(x3), rtol=1e-10,
-                            err_msg=msg)
+            assert_allclose(
+                at.equivalent_plastic_strain,
+                factor * lateral * eps_depth(x3),
+                rtol=1e-10,
+                err_msg=msg,
+            )
+            assert_allclose(
+                at.residual_stress_11, factor * lateral * s11_depth(x3), rtol=1e-10, err_msg=msg
+            )
+            assert_allclose(
+                at.residual_stress_33, factor * lateral * s33_depth(x3), rtol=1e-10, err_msg=msg
+            )
     # global maximum: the corner x1 = x2 = 7 µm, in the layer at 1.25 µm
     assert_allclose(float(result.max_plastic_strain), 0.006 * (1 + 1.4), rtol=1e-12)
-    assert_allclose([float(result.max_plastic_strain_x1), float(result.max_plastic_strain_x2),
-                     float(result.max_plastic_strain_depth)], [7e-6, 7e-6, 1.25e-6], rtol=1e-12)
+    assert_allclose(
+        [
+            float(result.max_plastic_strain_x1),
+            float(result.max_plastic_strain_x2),
+            float(result.max_plastic_strain_depth),
+        ],
+        [7e-6, 7e-6, 1.25e-6],
+        rtol=1e-12,
+    )
     assert_allclose(float(result.print_depth), 80e-9, rtol=1e-12)
     assert_allclose(float(result.residual_stress_11_first_layer), s11_depth(x3[0]), rtol=1e-10)
     assert_allclose(float(result.residual_stress_33_first_layer), s33_depth(x3[0]), rtol=1e-10)
@@ -231,8 +260,12 @@ def test_load_approach_shifted_unloading(tmp_path, nano_case):
         return hertz_contact(w, ref.radius, ref.e_star).approach
 
     shift = 0.2 * d_h(0.19)
-    steps = [(0.095, 0, 1.2 * d_h(0.095)), (0.19, 0, 1.2 * d_h(0.19)),
-             (0.095, 1, d_h(0.095) + shift), (0.0, 1, shift)]
+    steps = [
+        (0.095, 0, 1.2 * d_h(0.095)),
+        (0.19, 0, 1.2 * d_h(0.19)),
+        (0.095, 1, d_h(0.095) + shift),
+        (0.0, 1, shift),
+    ]
     coords = make_coords(9, 9, 1e-6, [1e-6])
     states = [state(k, w, segment=s, approach=d) for k, (w, s, d) in enumerate(steps)]
     ds = write_run(tmp_path / "nano.nc", nano_case, coords, states)
@@ -258,8 +291,10 @@ def test_elastic_vs_plastic_peak_ratio(tmp_path, hertz_case):
     ring = np.exp(-(((np.abs(x1) - 40e-6) / 20e-6) ** 2)) * (1 - (x2 / 30e-6) ** 2)
     runs = {}
     for name, peak in (("elastic", 2.75e9), ("plastic", 2.5e9)):
-        states = [state(0, 1.0, surface={"pressure": 0.5 * peak * ring}),
-                  state(1, 2.0, surface={"pressure": peak * ring})]
+        states = [
+            state(0, 1.0, surface={"pressure": 0.5 * peak * ring}),
+            state(1, 2.0, surface={"pressure": peak * ring}),
+        ]
         case = hertz_case.model_copy(update={"name": f"dent-{name}"})
         runs[name] = write_run(tmp_path / f"{name}.nc", case, coords, states)
     result = elastic_vs_plastic(runs["elastic"], runs["plastic"])
@@ -279,15 +314,19 @@ def sigma_run(path: Path, case: Case, coords: GridCoords, profile, layer: int) -
     s11 = 0.5 * profile(x1) * (1 - (x2 / 300e-6) ** 2)
     s11[:, :, layer] *= 2.0
     volume = {"residual_stress": tensor(coords, s11=s11)}
-    return write_run(path, case, coords, [state(0, 1318.0, volume=volume),
-                                          state(1, 0.0, volume=volume)])
+    return write_run(
+        path, case, coords, [state(0, 1318.0, volume=volume), state(1, 0.0, volume=volume)]
+    )
 
 
 def test_vertical_vs_rolling_min_and_asymmetry(tmp_path, hertz_case):
     dent_x1, w = 20e-6, 60e-6
     dented = hertz_case.model_copy(
-        update={"name": "dent-vertical", "surface": Dented(dents=(Dent(depth=35e-6, width=450e-6,
-                                                                       x1=dent_x1),))})
+        update={
+            "name": "dent-vertical",
+            "surface": Dented(dents=(Dent(depth=35e-6, width=450e-6, x1=dent_x1),)),
+        }
+    )
     coords = make_coords(41, 9, 10e-6, [15e-6, 45e-6, 75e-6, 105e-6], x1_0=dent_x1)
 
     def even(x):
@@ -300,8 +339,13 @@ def test_vertical_vs_rolling_min_and_asymmetry(tmp_path, hertz_case):
         return -650e6 * even(x) + 100e6 * (x - dent_x1) / w * even(x)
 
     ds_v = sigma_run(tmp_path / "v.nc", dented, coords, vertical, layer=2)
-    ds_r = sigma_run(tmp_path / "r.nc", dented.model_copy(update={"name": "dent-rolling"}),
-                     coords, rolling, layer=2)
+    ds_r = sigma_run(
+        tmp_path / "r.nc",
+        dented.model_copy(update={"name": "dent-rolling"}),
+        coords,
+        rolling,
+        layer=2,
+    )
     result = vertical_vs_rolling(ds_v, ds_r, depth=70e-6, x2=2e-6)
     assert result.attrs["depth_vertical"] == 75e-6 and result.attrs["x2_rolling"] == 0.0
     assert result.attrs["centre"] == dent_x1, "default centre: the dent"
@@ -313,8 +357,9 @@ def test_vertical_vs_rolling_min_and_asymmetry(tmp_path, hertz_case):
     assert_allclose(float(result.min_ratio), rolling(x).min() / -500e6, rtol=1e-12)
     assert float(result.asymmetry_vertical) < 1e-12, "symmetric about the dent"
     odd = 100e6 * (x - dent_x1) / w * even(x)
-    assert_allclose(float(result.asymmetry_rolling), np.abs(2 * odd).max() / -rolling(x).min(),
-                    rtol=1e-10)
+    assert_allclose(
+        float(result.asymmetry_rolling), np.abs(2 * odd).max() / -rolling(x).min(), rtol=1e-10
+    )
     assert_written(result, tmp_path, "vertical-vs-rolling")
 
 
@@ -329,8 +374,9 @@ def track_run(path: Path, case: Case, profile) -> xr.Dataset:
     """Load at x1 = 0, roll to 100 µm in 10 steps, unload; residual displacement profile(x1)."""
     coords = make_coords(281, 3, 0.5e-6, [1e-6], x1_0=50e-6)
     u = np.repeat(profile(coords.x1)[:, None], 3, axis=1)
-    states = [state(k, 1.0, load_x1=10e-6 * k, surface={"residual_displacement": u})
-              for k in range(11)]
+    states = [
+        state(k, 1.0, load_x1=10e-6 * k, surface={"residual_displacement": u}) for k in range(11)
+    ]
     states.append(state(11, 0.0, load_x1=100e-6, surface={"residual_displacement": u}))
     return write_run(path, case, coords, states)
 
@@ -345,14 +391,16 @@ def test_track_profile_steady_state_distance(tmp_path, hertz_case):
     assert_allclose(float(result.plateau), plateau, rtol=1e-12)
     # first cell centre at or beyond 0.98 s0 (cells every 0.5 µm on integer half-microns)
     assert_allclose(float(result.steady_state_distance), 20e-6, rtol=1e-9)
-    assert_allclose(float(result.steady_state_distance_over_a), 20e-6 / hertz_case.hertz().a,
-                    rtol=1e-9)
+    assert_allclose(
+        float(result.steady_state_distance_over_a), 20e-6 / hertz_case.hertz().a, rtol=1e-9
+    )
     assert (float(result.track_start), float(result.track_end)) == (0.0, 100e-6)
     assert_allclose(result.track_distance, result.x1, atol=1e-18)
     assert_written(result, tmp_path, "track")
 
-    slope = track_profile(track_run(tmp_path / "slope.nc", hertz_case,
-                                    lambda x: plateau * np.clip(x / 100e-6, 0, 1)))
+    slope = track_profile(
+        track_run(tmp_path / "slope.nc", hertz_case, lambda x: plateau * np.clip(x / 100e-6, 0, 1))
+    )
     assert np.isnan(float(slope.steady_state_distance)), "never steady"
 
 
@@ -366,19 +414,28 @@ def test_track_profile_needs_a_rolled_track(tmp_path, hertz_case):
 def test_residual_map_layer_and_extrema(tmp_path, hertz_case):
     coords = make_coords(21, 15, 10e-6, [35e-6, 65e-6, 95e-6])
     x1, x2, x3 = mesh(coords)
-    field = -500e6 * np.exp(-((x1 - 30e-6) ** 2 + (x2 + 20e-6) ** 2) / (50e-6) ** 2) * (
-        1 + (x3 - 65e-6) / 100e-6)
-    ds = write_run(tmp_path / "dent.nc", hertz_case, coords,
-                   [state(0, 1.0, volume={"residual_stress": tensor(coords, s33=field)})])
+    field = (
+        -500e6
+        * np.exp(-((x1 - 30e-6) ** 2 + (x2 + 20e-6) ** 2) / (50e-6) ** 2)
+        * (1 + (x3 - 65e-6) / 100e-6)
+    )
+    ds = write_run(
+        tmp_path / "dent.nc",
+        hertz_case,
+        coords,
+        [state(0, 1.0, volume={"residual_stress": tensor(coords, s33=field)})],
+    )
     result = residual_map(ds, depth=60e-6, component="33")
     assert result.attrs["depth"] == 65e-6 and result.attrs["component"] == "33"
     assert_allclose(result.residual_stress_map.transpose("x1", "x2"), field[:, :, 1], rtol=1e-12)
     assert_allclose(float(result.map_min), -500e6, rtol=1e-12)
-    assert_allclose([float(result.map_min_x1), float(result.map_min_x2)], [30e-6, -20e-6],
-                    rtol=1e-12)
+    assert_allclose(
+        [float(result.map_min_x1), float(result.map_min_x2)], [30e-6, -20e-6], rtol=1e-12
+    )
     assert "σ33" in result.residual_stress_map.attrs["long_name"]
-    assert_allclose(float(residual_map(ds, depth=65e-6).map_min), 0.0, atol=0,
-                    err_msg="σ11 is zero in this run")
+    assert_allclose(
+        float(residual_map(ds, depth=65e-6).map_min), 0.0, atol=0, err_msg="σ11 is zero in this run"
+    )
     assert_written(result, tmp_path, "residual-map")
     with pytest.raises(CompareError, match="component"):
         residual_map(ds, component="44")
@@ -392,12 +449,23 @@ def campaign_runs(tmp_path: Path, case: Case) -> list[Path]:
         c = load_case(NANO, [*SMALL, f"load_path.0.to={load}", f"name=sweep-{k}"])
         x1, x2, x3 = mesh(coords)
         eps = load * 0.01 * np.exp(-(x1**2 + x2**2) / 1e-12) * (x3 > 1e-6)
-        volume = {"equivalent_plastic_strain": eps,
-                  "residual_stress": tensor(coords, s11=-load * 1e9 * (x3 > 1e-6) + 1e6)}
+        volume = {
+            "equivalent_plastic_strain": eps,
+            "residual_stress": tensor(coords, s11=-load * 1e9 * (x3 > 1e-6) + 1e6),
+        }
         surface = {"residual_displacement": np.full((5, 5), load * 1e-7)}
-        states = [state(0, load, max_pressure=load * 3e10, contact_iterations=10,
-                        plasticity_iterations=5 * (k + 1), volume=volume, surface=surface),
-                  state(1, 0.0, contact_iterations=3)]
+        states = [
+            state(
+                0,
+                load,
+                max_pressure=load * 3e10,
+                contact_iterations=10,
+                plasticity_iterations=5 * (k + 1),
+                volume=volume,
+                surface=surface,
+            ),
+            state(1, 0.0, contact_iterations=3),
+        ]
         write_run(tmp_path / f"{c.name}.nc", c, coords, states, wall_time=float(k + 1))
         paths.append(tmp_path / f"{c.name}.nc")
     return paths
@@ -422,10 +490,25 @@ def test_campaign_summary_parameters_from_attrs_and_manifest(tmp_path, nano_case
     assert_written(result, tmp_path, "campaign")
 
     manifest = tmp_path / "sweep.manifest.json"
-    manifest.write_text(json.dumps({"campaign": "sweep", "cases": [
-        {"index": k, "name": p.stem, "case_id": "x", "path": p.name, "status": "done",
-         "parameters": {"load": load, "label": f"L{k}"}, "wall_time": 10.0 + k}
-        for k, (p, load) in enumerate(zip(paths, loads, strict=True))]}))
+    manifest.write_text(
+        json.dumps(
+            {
+                "campaign": "sweep",
+                "cases": [
+                    {
+                        "index": k,
+                        "name": p.stem,
+                        "case_id": "x",
+                        "path": p.name,
+                        "status": "done",
+                        "parameters": {"load": load, "label": f"L{k}"},
+                        "wall_time": 10.0 + k,
+                    }
+                    for k, (p, load) in enumerate(zip(paths, loads, strict=True))
+                ],
+            }
+        )
+    )
     from_manifest = campaign_summary(manifest)  # the manifest alone lists the runs
     assert from_manifest.attrs["parameters"] == "load label"
     assert_allclose(from_manifest["load"], loads)
@@ -440,15 +523,28 @@ def test_case_vs_reference_csv_and_netcdf(tmp_path, hertz_case):
     coords = make_coords(21, 5, 1e-6, [1e-6])
     x1, x2 = np.meshgrid(coords.x1, coords.x2, indexing="ij")
     pressure = 1e9 + 1e14 * x1 + 1e14 * x2  # linear: interpolation is exact
-    ds = write_run(tmp_path / "run.nc", hertz_case, coords,
-                   [state(0, 1.0, surface={"pressure": 0.5 * pressure}),
-                    state(1, 1.0, surface={"pressure": pressure})])
+    ds = write_run(
+        tmp_path / "run.nc",
+        hertz_case,
+        coords,
+        [
+            state(0, 1.0, surface={"pressure": 0.5 * pressure}),
+            state(1, 1.0, surface={"pressure": pressure}),
+        ],
+    )
     points = np.array([-9.3e-6, -2.2e-6, 0.7e-6, 5.55e-6, 30e-6])  # the last is off the grid
     csv = tmp_path / "ref.csv"
     rows = "\n".join(f"{x * 1e6:.6g}, {(1e9 + 1e14 * x) * 1e-6 + 2.0:.12g}" for x in points)
     csv.write_text(f"# x1 [µm], pressure [MPa]\nx1, p\n{rows}\n")
-    result = case_vs_reference(ds, csv, "pressure", select={"x2": 0.0}, reference_variable="p",
-                               value_scale=1e6, coord_scale=1e-6)
+    result = case_vs_reference(
+        ds,
+        csv,
+        "pressure",
+        select={"x2": 0.0},
+        reference_variable="p",
+        value_scale=1e6,
+        coord_scale=1e-6,
+    )
     assert_allclose(float(result.max_abs_difference), 2e6, rtol=1e-9, err_msg="2 MPa offset")
     assert_allclose(float(result.rms_difference), 2e6, rtol=1e-9)
     assert (int(result.points), int(result.points_outside)) == (4, 1)
@@ -456,8 +552,10 @@ def test_case_vs_reference_csv_and_netcdf(tmp_path, hertz_case):
     assert result.run_value.attrs["units"] == "Pa"
     assert_written(result, tmp_path, "vs-ref")
 
-    ref = xr.Dataset({"pressure": (("x1", "x2"), pressure[::2, :] - 5.0)},
-                     coords={"x1": coords.x1[::2], "x2": coords.x2})
+    ref = xr.Dataset(
+        {"pressure": (("x1", "x2"), pressure[::2, :] - 5.0)},
+        coords={"x1": coords.x1[::2], "x2": coords.x2},
+    )
     grid = case_vs_reference(ds, ref, "pressure", step="last")
     assert_allclose(float(grid.max_abs_difference), 5.0, rtol=1e-6)
     assert int(grid.points) == ref.pressure.size
@@ -483,8 +581,12 @@ def test_errors_name_the_problem(tmp_path, hertz_case):
     xr.Dataset({"a": ("x", [1.0])}).to_netcdf(tmp_path / "plain.nc")
     with pytest.raises(CompareError, match="not a sacflow run"):
         hertz_check(tmp_path / "plain.nc")
-    only_surface = write_run(tmp_path / "s.nc", hertz_case, coords, [
-        state(0, 1.0, surface={"pressure": np.ones((9, 9))})])
+    only_surface = write_run(
+        tmp_path / "s.nc",
+        hertz_case,
+        coords,
+        [state(0, 1.0, surface={"pressure": np.ones((9, 9))})],
+    )
     with pytest.raises(CompareError, match="stores no values of 'residual_stress'"):
         residual_map(only_surface)
 
@@ -497,8 +599,10 @@ def test_every_result_variable_has_metadata():
 # --------------------------------------------------------------------------- command line
 def test_cli_compare(tmp_path, hertz_case, capsys):
     hertz_run(tmp_path / "hertz.nc", hertz_case)
-    assert main(["compare", "hertz-check", str(tmp_path / "hertz.nc"), "--out",
-                 str(tmp_path / "cmp")]) == 0
+    assert (
+        main(["compare", "hertz-check", str(tmp_path / "hertz.nc"), "--out", str(tmp_path / "cmp")])
+        == 0
+    )
     out = capsys.readouterr().out
     assert "p0_error" in out and "hertz-hertz-check.nc" in out
     assert (tmp_path / "cmp" / "hertz-hertz-check.png").is_file()
@@ -507,8 +611,12 @@ def test_cli_compare(tmp_path, hertz_case, capsys):
     assert "--depth does not apply to hertz-check" in capsys.readouterr().err
     assert main(["compare", "elastic-vs-plastic", str(tmp_path / "hertz.nc")]) == 1
     assert "takes 2 run file(s)" in capsys.readouterr().err
-    assert main(["compare", "residual-map", str(tmp_path / "hertz.nc"), "--out",
-                 str(tmp_path / "cmp")]) == 1
+    assert (
+        main(
+            ["compare", "residual-map", str(tmp_path / "hertz.nc"), "--out", str(tmp_path / "cmp")]
+        )
+        == 1
+    )
     assert "error:" in capsys.readouterr().err
     assert main(["compare", "case-vs-reference", str(tmp_path / "hertz.nc")]) == 1
     assert "needs --reference, --variable" in capsys.readouterr().err
@@ -522,6 +630,7 @@ def test_hertz_check_on_a_real_elastic_run(tmp_path):
     summary_ = run_case(case, tmp_path, progress=False)
     result = hertz_check(summary_.path)
     assert abs(float(result.p0_error)) < 0.01, f"p0 error {float(result.p0_error):.4f}"
-    assert abs(float(result.approach_max_error)) < 0.02
-    assert abs(float(result.profile_error)) < 0.02
+    assert abs(float(result.approach_max_error)) < 0.01
+    assert abs(float(result.contact_radius_error)) < 0.03, "area counted in whole cells"
+    assert abs(float(result.profile_error)) < 0.05, "edge cells of the contact"
     assert_written(result, tmp_path, "real-hertz")

@@ -75,8 +75,12 @@ def _results(ds: xr.Dataset) -> dict[str, float]:
     """Scalar results of one run; NaN where the run lacks the output."""
     out: dict[str, float] = {}
     eps = _last_stored(ds, "equivalent_plastic_strain")
-    keys = ("max_plastic_strain", "max_plastic_strain_x1", "max_plastic_strain_x2",
-            "max_plastic_strain_depth")
+    keys = (
+        "max_plastic_strain",
+        "max_plastic_strain_x1",
+        "max_plastic_strain_x2",
+        "max_plastic_strain_depth",
+    )
     if eps is not None:
         values = np.asarray(eps.transpose("x1", "x2", "x3").values, dtype=float)
         i1, i2, i3 = np.unravel_index(int(np.nanargmax(values)), values.shape)
@@ -124,8 +128,7 @@ def _manifest_entries(manifest: Any) -> list[dict[str, Any]]:
         for item in manifest:
             if not isinstance(item, Mapping):
                 raise CompareError("manifest entries must be tables (JSON objects)")
-            params = next((item[k] for k in ("parameters", "params", "overrides") if k in item),
-                          {})
+            params = next((item[k] for k in ("parameters", "params", "overrides") if k in item), {})
             entries.append({**item, "parameters": dict(params)})
         return entries
     raise CompareError("the campaign manifest must be a JSON object or list of cases")
@@ -166,9 +169,7 @@ def _coordinate(values: list[Any]) -> np.ndarray:
     return np.asarray([json.dumps(v) if not isinstance(v, str) else v for v in values])
 
 
-def campaign_summary(
-    runs: Sequence[RunLike], parameters: Parameters = None
-) -> xr.Dataset:
+def campaign_summary(runs: Sequence[RunLike], parameters: Parameters = None) -> xr.Dataset:
     """Scalar results of the runs of a campaign along a ``case`` dimension.
 
     Parameters
@@ -208,8 +209,11 @@ def campaign_summary(
             entries = _manifest_entries(manifest)
         elif isinstance(parameters, Mapping):
             entries = _manifest_entries(parameters)
-        matched = [_match(entries, ds, r) for ds, r in zip(datasets, runs, strict=True)] if (
-            entries is not None) else None
+        matched = (
+            [_match(entries, ds, r) for ds, r in zip(datasets, runs, strict=True)]
+            if (entries is not None)
+            else None
+        )
 
         if matched is not None:
             keys = list(dict.fromkeys(k for e in matched for k in e["parameters"]))
@@ -222,7 +226,8 @@ def campaign_summary(
             values = {k: [c[k] for c in cases] for k in keys}
         else:
             keys = [
-                k for k in dict.fromkeys(k for c in cases for k in c)
+                k
+                for k in dict.fromkeys(k for c in cases for k in c)
                 if k not in _IGNORED and len({json.dumps(c.get(k)) for c in cases}) > 1
             ]
             values = {k: [c.get(k) for c in cases] for k in keys}
@@ -237,15 +242,21 @@ def campaign_summary(
                 row["wall_time"] = float(entry["wall_time"])
     names = [case_name(ds) for ds in datasets]
     ids = [str(ds.attrs.get("case_id", "")) for ds in datasets]
-    labels = names if len(set(names)) == len(names) else [f"{n}-{i}" for n, i in
-                                                          zip(names, ids, strict=True)]
+    labels = (
+        names
+        if len(set(names)) == len(names)
+        else [f"{n}-{i}" for n, i in zip(names, ids, strict=True)]
+    )
     coords: dict[str, Any] = {"case": labels, "case_id": ("case", ids)}
     coords.update({k: ("case", _coordinate(v)) for k, v in values.items()})
     data = {k: ("case", np.array([row[k] for row in rows])) for k in rows[0]}
     return build(
         data,
         coords=coords,
-        attrs={"stage": "campaign-summary", "case": f"campaign of {len(rows)} runs",
-               "parameters": " ".join(keys)},
+        attrs={
+            "stage": "campaign-summary",
+            "case": f"campaign of {len(rows)} runs",
+            "parameters": " ".join(keys),
+        },
         metadata_of={k: f"swept parameter {k}" for k in keys},
     )

@@ -30,24 +30,57 @@ class Stage:
 
 STAGES: dict[str, Stage] = {
     "hertz-check": Stage("hertz:hertz_check", "1", help="load-approach and pressure vs Hertz"),
-    "indentation": Stage("fields:indentation_profiles", "1", ("offsets",),
-                         help="εp and residual σ11, σ33 vs depth (seed Figs. 13-16)"),
-    "load-approach": Stage("hertz:load_approach", "1", ("reference",),
-                           help="loading/unloading branches vs Hertz (seed Fig. 11)"),
-    "elastic-vs-plastic": Stage("pairs:elastic_vs_plastic", "2",
-                                help="pressure profiles at max load (seed Fig. 20)"),
-    "vertical-vs-rolling": Stage("pairs:vertical_vs_rolling", "2", ("depth", "x2", "centre"),
-                                 help="residual σ11 along x1 at a depth (seed Fig. 22)"),
-    "track": Stage("track:track_profile", "1", ("x2", "tolerance", "end_margin"),
-                   help="residual displacement on a rolled track (seed Fig. 18)"),
-    "residual-map": Stage("fields:residual_map", "1", ("depth", "component", "step"),
-                          help="residual stress map in a plane x3 = depth (seed Fig. 21)"),
-    "campaign-summary": Stage("campaign:campaign_summary", "+", ("parameters", "result"),
-                              help="scalar results of many runs along a case dimension"),
+    "indentation": Stage(
+        "fields:indentation_profiles",
+        "1",
+        ("offsets",),
+        help="εp and residual σ11, σ33 vs depth (seed Figs. 13-16)",
+    ),
+    "load-approach": Stage(
+        "hertz:load_approach",
+        "1",
+        ("reference",),
+        help="loading/unloading branches vs Hertz (seed Fig. 11)",
+    ),
+    "elastic-vs-plastic": Stage(
+        "pairs:elastic_vs_plastic", "2", help="pressure profiles at max load (seed Fig. 20)"
+    ),
+    "vertical-vs-rolling": Stage(
+        "pairs:vertical_vs_rolling",
+        "2",
+        ("depth", "x2", "centre"),
+        help="residual σ11 along x1 at a depth (seed Fig. 22)",
+    ),
+    "track": Stage(
+        "track:track_profile",
+        "1",
+        ("x2", "tolerance", "end_margin"),
+        help="residual displacement on a rolled track (seed Fig. 18)",
+    ),
+    "residual-map": Stage(
+        "fields:residual_map",
+        "1",
+        ("depth", "component", "step"),
+        help="residual stress map in a plane x3 = depth (seed Fig. 21)",
+    ),
+    "campaign-summary": Stage(
+        "campaign:campaign_summary",
+        "+",
+        ("parameters", "result"),
+        help="scalar results of many runs along a case dimension",
+    ),
     "case-vs-reference": Stage(
-        "reference:case_vs_reference", "1",
-        ("reference", "variable", "step", "select", "reference_variable", "value_scale",
-         "coord_scale"),
+        "reference:case_vs_reference",
+        "1",
+        (
+            "reference",
+            "variable",
+            "step",
+            "select",
+            "reference_variable",
+            "value_scale",
+            "coord_scale",
+        ),
         required=("reference", "variable"),
         help="a stored field/profile against reference points (CSV or netCDF)",
     ),
@@ -88,12 +121,17 @@ def add_compare_command(commands: Any) -> None:
     option.add_argument("--reference", type=Path, help="reference file (CSV or netCDF)")
     option.add_argument("--variable", help="case-vs-reference: stored variable")
     option.add_argument("--reference-variable", help="value column of the reference")
-    option.add_argument("--select", action="append", metavar="DIM=VALUE",
-                        help="fixed position, e.g. --select x2=0 --select component=11")
+    option.add_argument(
+        "--select",
+        action="append",
+        metavar="DIM=VALUE",
+        help="fixed position, e.g. --select x2=0 --select component=11",
+    )
     option.add_argument("--value-scale", type=float, help="reference values -> SI (1e6: MPa)")
     option.add_argument("--coord-scale", type=float, help="reference coordinates -> m (1e-6: µm)")
-    option.add_argument("--parameters",
-                        help="campaign: manifest JSON file, or comma-separated dotted case keys")
+    option.add_argument(
+        "--parameters", help="campaign: manifest JSON file, or comma-separated dotted case keys"
+    )
     option.add_argument("--result", help="campaign: result to plot (default max_plastic_strain)")
     parser.set_defaults(handler=run_compare)
 

@@ -260,8 +260,10 @@ def case_of(ds: xr.Dataset) -> Case:
     try:
         return Case.model_validate_json(ds.attrs["case"])
     except (KeyError, ValidationError, ValueError) as exc:
-        raise CompareError(f"{_where(ds)}cannot rebuild the case from the 'case' attribute "
-                           f"({str(exc).splitlines()[0]})") from None
+        raise CompareError(
+            f"{_where(ds)}cannot rebuild the case from the 'case' attribute "
+            f"({str(exc).splitlines()[0]})"
+        ) from None
 
 
 def case_name(ds: xr.Dataset) -> str:

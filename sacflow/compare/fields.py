@@ -69,8 +69,9 @@ def indentation_profiles(
     """
     ds = load_run(run)
     stage = "indentation"
-    require(ds, "load", "load_x1", "load_x2", "residual_stress", "residual_displacement",
-            stage=stage)
+    require(
+        ds, "load", "load_x1", "load_x2", "residual_stress", "residual_displacement", stage=stage
+    )
     name = "equivalent_plastic_strain"
     steps = {w: step_index(ds, name, w, stage) for w in ("max_load", "last")}
     axis = ds.isel(step=max_load_index(ds))

@@ -81,8 +81,7 @@ def summary(result: xr.Dataset) -> str:
         for i, case in enumerate(result["case"].values):
             parts = [f"{p}={result[p].values[i]}" for p in params]
             parts += [
-                f"{k}={_value(float(result[k].values[i]), result[k].attrs['units'])}"
-                for k in shown
+                f"{k}={_value(float(result[k].values[i]), result[k].attrs['units'])}" for k in shown
             ]
             lines.append(f"  {case}: " + ", ".join(parts))
     return "\n".join(lines)

@@ -9,12 +9,13 @@ figure has a legend and a title with the case name.
 from __future__ import annotations
 
 from collections.abc import Callable
+from pathlib import Path
 
 import numpy as np
 import xarray as xr
 from matplotlib.figure import Figure
 
-from sacflow.reference import hertz_pressure
+from sacflow.reference import hertz_contact, hertz_pressure
 
 __all__ = ["PLOTS", "plot"]
 
@@ -44,9 +45,22 @@ def _figure(result: xr.Dataset, what: str, panels: tuple[int, int] = (1, 1), siz
     return fig, axes
 
 
+def _label(reference: str) -> str:
+    """A short label for a reference: its file name."""
+    return Path(reference).name or reference
+
+
 def _note(ax, text: str) -> None:
-    ax.text(0.02, 0.02, text, transform=ax.transAxes, fontsize=8, va="bottom", ha="left",
-            bbox={"boxstyle": "round", "fc": "white", "alpha": 0.8, "lw": 0.5})
+    ax.text(
+        0.02,
+        0.02,
+        text,
+        transform=ax.transAxes,
+        fontsize=8,
+        va="bottom",
+        ha="left",
+        bbox={"boxstyle": "round", "fc": "white", "alpha": 0.8, "lw": 0.5},
+    )
 
 
 def plot_hertz_check(result: xr.Dataset) -> Figure:
@@ -55,9 +69,10 @@ def plot_hertz_check(result: xr.Dataset) -> Figure:
     left, right = axes[0]
     fw, wu = _scale("N", result["load"])
     fd, du = _scale("m", result["approach_hertz"])
-    order = np.argsort(result["load"].values)
-    left.plot(result["approach_hertz"].values[order] * fd, result["load"].values[order] * fw,
-              "k-", label="Hertz")
+    loads = np.linspace(0.0, result.attrs["load_max"], 101)
+    radius, e_star = result.attrs["effective_radius"], result.attrs["e_star"]
+    curve = [hertz_contact(w, radius, e_star).approach for w in loads]
+    left.plot(np.asarray(curve) * fd, loads * fw, "k-", label="Hertz")
     left.plot(result["approach"] * fd, result["load"] * fw, "o", label="run")
     left.set(xlabel=f"approach δ [{du}]", ylabel=f"load W [{wu}]", title="load vs approach")
     left.legend()
@@ -69,12 +84,18 @@ def plot_hertz_check(result: xr.Dataset) -> Figure:
     right.plot(fine * UM, hertz_pressure(np.hypot(fine, dy), a, p0) * GPA, "k-", label="Hertz")
     right.step(x, result["pressure"] * GPA, where="mid", label="run (cells)")
     right.plot(x, result["pressure"] * GPA, ".", color="C0")
-    right.set(xlabel="x1 − load x1 [µm]", ylabel="pressure [GPa]",
-              title=f"pressure at max load (x2 = {result.attrs['profile_x2'] * UM:.3g} µm)")
+    right.set(
+        xlabel="x1 − load x1 [µm]",
+        ylabel="pressure [GPa]",
+        title=f"pressure at max load (x2 = {result.attrs['profile_x2'] * UM:.3g} µm)",
+    )
     right.legend()
-    _note(right, f"p0 error {float(result['p0_error']):+.2%}\n"
-                 f"a error {float(result['contact_radius_error']):+.2%}\n"
-                 f"δ error {float(result['approach_max_error']):+.2%}")
+    _note(
+        right,
+        f"p0 error {float(result['p0_error']):+.2%}\n"
+        f"a error {float(result['contact_radius_error']):+.2%}\n"
+        f"δ error {float(result['approach_max_error']):+.2%}",
+    )
     return fig
 
 
@@ -89,30 +110,51 @@ def plot_load_approach(result: xr.Dataset) -> Figure:
     load, approach = result["load"].values, result["approach"].values
     top = int(np.flatnonzero(result["step"].values == result.attrs["step_max_load"])[0])
     loading = np.flatnonzero(branch == "loading")
-    ax.plot(np.r_[0.0, approach[loading]] * fd, np.r_[0.0, load[loading]] * fw, "o-",
-            ms=3, label="loading")
+    ax.plot(
+        np.r_[0.0, approach[loading]] * fd,
+        np.r_[0.0, load[loading]] * fw,
+        "o-",
+        ms=3,
+        label="loading",
+    )
     unloading = np.flatnonzero(branch == "unloading")
     unloading = unloading[unloading > top]
     if unloading.size:
-        ax.plot(np.r_[approach[top], approach[unloading]] * fd,
-                np.r_[load[top], load[unloading]] * fw, "s-", ms=3, label="unloading")
+        ax.plot(
+            np.r_[approach[top], approach[unloading]] * fd,
+            np.r_[load[top], load[unloading]] * fw,
+            "s-",
+            ms=3,
+            label="unloading",
+        )
         shifted = result["approach_shifted"].values
-        ax.plot(np.r_[result["approach_max_hertz"].item(), shifted[unloading]] * fd,
-                np.r_[load[top], load[unloading]] * fw, "s--", ms=3, mfc="none",
-                label=f"unloading shifted by {float(result['unloading_shift']) * fd:.3g} {du}")
+        ax.plot(
+            np.r_[result["approach_max_hertz"].item(), shifted[unloading]] * fd,
+            np.r_[load[top], load[unloading]] * fw,
+            "s--",
+            ms=3,
+            mfc="none",
+            label=f"unloading shifted by {float(result['unloading_shift']) * fd:.3g} {du}",
+        )
     if "reference_load" in result:
-        ax.plot(result["reference_approach"] * fd, result["reference_load"] * fw, "x",
-                color="0.4", label=f"reference ({result.attrs.get('reference', '')})")
+        ax.plot(
+            result["reference_approach"] * fd,
+            result["reference_load"] * fw,
+            "x",
+            color="0.4",
+            label=f"reference ({_label(result.attrs.get('reference', ''))})",
+        )
     ax.set(xlabel=f"rigid-body approach δ [{du}]", ylabel=f"load W [{wu}]")
-    ax.legend()
+    ax.legend(loc="upper left")
     return fig
 
 
 def plot_indentation(result: xr.Dataset) -> Figure:
     """Rows: profile offsets; columns: εp [%] and residual σ11, σ33 [MPa] versus depth."""
     n = result.sizes["offset"]
-    fig, axes = _figure(result, "plastic strain and residual stress vs depth", (n, 2),
-                        (10.0, 3.2 * n + 0.6))
+    fig, axes = _figure(
+        result, "plastic strain and residual stress vs depth", (n, 2), (10.0, 3.2 * n + 0.6)
+    )
     depth = result["x3"].values * UM
     styles = {"max_load": ("--", "at max load"), "last": ("-", "after unloading")}
     for row, offset in enumerate(result["offset"].values):
@@ -120,21 +162,31 @@ def plot_indentation(result: xr.Dataset) -> Figure:
         where = "on the axis" if offset == 0 else f"{offset * UM:.3g} µm off axis"
         for when, (style, label) in styles.items():
             at = result.sel(when=when, offset=offset)
-            left.plot(depth, at["equivalent_plastic_strain"] * 100, style, color="C0",
-                      label=f"εp {label}")
-            right.plot(depth, at["residual_stress_11"] * MPA, style, color="C1",
-                       label=f"σ11 {label}")
-            right.plot(depth, at["residual_stress_33"] * MPA, style, color="C2",
-                       label=f"σ33 {label}")
-        left.set(xlabel="depth x3 [µm]", ylabel="equivalent plastic strain [%]",
-                 title=f"plastic strain {where}")
-        right.set(xlabel="depth x3 [µm]", ylabel="residual stress [MPa]",
-                  title=f"residual stress {where}")
+            left.plot(
+                depth, at["equivalent_plastic_strain"] * 100, style, color="C0", label=f"εp {label}"
+            )
+            right.plot(
+                depth, at["residual_stress_11"] * MPA, style, color="C1", label=f"σ11 {label}"
+            )
+            right.plot(
+                depth, at["residual_stress_33"] * MPA, style, color="C2", label=f"σ33 {label}"
+            )
+        left.set(
+            xlabel="depth x3 [µm]",
+            ylabel="equivalent plastic strain [%]",
+            title=f"plastic strain {where}",
+        )
+        right.set(
+            xlabel="depth x3 [µm]", ylabel="residual stress [MPa]", title=f"residual stress {where}"
+        )
         left.legend(fontsize=8)
         right.legend(fontsize=8)
-    _note(axes[0, 0], f"max εp {float(result['max_plastic_strain']):.3%} at "
-                      f"x3 = {float(result['max_plastic_strain_depth']) * UM:.3g} µm\n"
-                      f"print depth {float(result['print_depth']) * 1e9:.3g} nm")
+    _note(
+        axes[0, 0],
+        f"max εp {float(result['max_plastic_strain']):.3%} at "
+        f"x3 = {float(result['max_plastic_strain_depth']) * UM:.3g} µm\n"
+        f"print depth {float(result['print_depth']) * 1e9:.3g} nm",
+    )
     return fig
 
 
@@ -143,11 +195,18 @@ def plot_elastic_vs_plastic(result: xr.Dataset) -> Figure:
     fig, axes = _figure(result, "contact pressure, elastic vs elastic-plastic")
     ax = axes[0, 0]
     x = result["x1"].values * UM
-    for name, label, color in (("elastic", result.attrs["case_elastic"], "C0"),
-                               ("plastic", result.attrs["case_plastic"], "C3")):
+    for name, label, color in (
+        ("elastic", result.attrs["case_elastic"], "C0"),
+        ("plastic", result.attrs["case_plastic"], "C3"),
+    ):
         ax.plot(x, result[f"pressure_{name}"] * GPA, "-", color=color, label=label)
-        ax.plot(float(result[f"peak_{name}_x1"]) * UM, float(result[f"peak_{name}"]) * GPA, "v",
-                color=color, label=f"peak {float(result[f'peak_{name}']) * GPA:.3g} GPa")
+        ax.plot(
+            float(result[f"peak_{name}_x1"]) * UM,
+            float(result[f"peak_{name}"]) * GPA,
+            "v",
+            color=color,
+            label=f"peak {float(result[f'peak_{name}']) * GPA:.3g} GPa",
+        )
     ax.set(xlabel="x1 [µm]", ylabel="pressure [GPa]")
     ax.legend()
     _note(ax, f"elastic / elastic-plastic peak = {float(result['peak_ratio']):.3f}")
@@ -162,15 +221,28 @@ def plot_vertical_vs_rolling(result: xr.Dataset) -> Figure:
     c = result.attrs["centre"]
     for name, color in (("vertical", "C0"), ("rolling", "C3")):
         x = (result[f"x1_{name}"].values - c) * UM
-        ax.plot(x, result[f"residual_stress_11_{name}"] * MPA, "-", color=color,
-                label=f"{name} ({result.attrs[f'case_{name}']})")
-        ax.plot((float(result[f"min_{name}_x1"]) - c) * UM, float(result[f"min_{name}"]) * MPA,
-                "v", color=color, label=f"min {float(result[f'min_{name}']) * MPA:.4g} MPa")
+        ax.plot(
+            x,
+            result[f"residual_stress_11_{name}"] * MPA,
+            "-",
+            color=color,
+            label=f"{name} ({result.attrs[f'case_{name}']})",
+        )
+        ax.plot(
+            (float(result[f"min_{name}_x1"]) - c) * UM,
+            float(result[f"min_{name}"]) * MPA,
+            "v",
+            color=color,
+            label=f"min {float(result[f'min_{name}']) * MPA:.4g} MPa",
+        )
     ax.set(xlabel=f"x1 − {c * UM:.4g} µm [µm]", ylabel="residual stress σ11 [MPa]")
     ax.legend()
-    _note(ax, f"min ratio rolling / vertical {float(result['min_ratio']):.3f}\n"
-              f"asymmetry {float(result['asymmetry_vertical']):.3f} (vertical), "
-              f"{float(result['asymmetry_rolling']):.3f} (rolling)")
+    _note(
+        ax,
+        f"min ratio rolling / vertical {float(result['min_ratio']):.3f}\n"
+        f"asymmetry {float(result['asymmetry_vertical']):.3f} (vertical), "
+        f"{float(result['asymmetry_rolling']):.3f} (rolling)",
+    )
     return fig
 
 
@@ -183,16 +255,25 @@ def plot_track(result: xr.Dataset) -> Figure:
     x = (result["x1"].values - end) * UM
     ax.plot(x, result["residual_displacement"] * fu, "-", label="residual displacement")
     plateau, tol = float(result["plateau"]), result.attrs["tolerance"]
-    ax.axhspan((plateau - tol * abs(plateau)) * fu, (plateau + tol * abs(plateau)) * fu,
-               color="C2", alpha=0.2, label=f"plateau ± {tol:.0%}")
+    ax.axhspan(
+        (plateau - tol * abs(plateau)) * fu,
+        (plateau + tol * abs(plateau)) * fu,
+        color="C2",
+        alpha=0.2,
+        label=f"plateau ± {tol:.0%}",
+    )
     start = (float(result["track_start"]) - end) * UM
     ax.axvline(start, color="0.5", ls=":", label="track start")
     steady = float(result["steady_state_distance"])
     if np.isfinite(steady):
         direction = np.sign(end - float(result["track_start"])) or 1.0
-        ax.axvline(start + direction * steady * UM, color="C3", ls="--",
-                   label=f"steady after {steady * UM:.4g} µm "
-                         f"({float(result['steady_state_distance_over_a']):.2f} a)")
+        ax.axvline(
+            start + direction * steady * UM,
+            color="C3",
+            ls="--",
+            label=f"steady after {steady * UM:.4g} µm "
+            f"({float(result['steady_state_distance_over_a']):.2f} a)",
+        )
     ax.set(xlabel="x1 − x1 at unloading [µm]", ylabel=f"residual displacement [{unit}]")
     ax.legend()
     return fig
@@ -203,13 +284,24 @@ def plot_residual_map(result: xr.Dataset) -> Figure:
     comp, depth = result.attrs["component"], result.attrs["depth"] * UM
     fig, axes = _figure(result, f"residual σ{comp} at x3 = {depth:.3g} µm", size=(6.5, 5.5))
     ax = axes[0, 0]
+    ax.grid(False)
     values = result["residual_stress_map"].transpose("x2", "x1").values * MPA
-    mesh = ax.pcolormesh(result["x1"] * UM, result["x2"] * UM, values, shading="nearest",
-                         cmap="RdBu_r", vmin=-np.nanmax(np.abs(values)),
-                         vmax=np.nanmax(np.abs(values)))
+    mesh = ax.pcolormesh(
+        result["x1"] * UM,
+        result["x2"] * UM,
+        values,
+        shading="nearest",
+        cmap="RdBu_r",
+        vmin=-np.nanmax(np.abs(values)),
+        vmax=np.nanmax(np.abs(values)),
+    )
     fig.colorbar(mesh, ax=ax, label=f"residual σ{comp} [MPa]")
-    ax.plot(float(result["map_min_x1"]) * UM, float(result["map_min_x2"]) * UM, "kv",
-            label=f"min {float(result['map_min']) * MPA:.4g} MPa")
+    ax.plot(
+        float(result["map_min_x1"]) * UM,
+        float(result["map_min_x2"]) * UM,
+        "kv",
+        label=f"min {float(result['map_min']) * MPA:.4g} MPa",
+    )
     ax.set(xlabel="x1 [µm]", ylabel="x2 [µm]", aspect="equal")
     ax.legend(loc="upper right")
     return fig
@@ -257,15 +349,28 @@ def plot_case_vs_reference(result: xr.Dataset) -> Figure:
     if len(dims) == 1:
         fig, axes = _figure(result, f"{var} vs reference", (2, 1), (7.0, 6.0))
         top, bottom = axes[:, 0]
+        bottom.sharex(top)
         fx, ux = _scale(result[dims[0]].attrs.get("units", "1"), result[dims[0]])
         order = np.argsort(result[dims[0]].values)
         x = result[dims[0]].values[order] * fx
-        top.plot(x, result["reference_value"].values[order] * fv, "o", mfc="none",
-                 label=f"reference ({result.attrs['reference']})")
+        top.plot(
+            x,
+            result["reference_value"].values[order] * fv,
+            "o",
+            mfc="none",
+            label=f"reference ({_label(result.attrs['reference'])})",
+        )
         top.plot(x, result["run_value"].values[order] * fv, "-", label="run (interpolated)")
         top.set(ylabel=f"{var} [{uv}]")
-        bottom.plot(x, result["difference"].values[order] * fv, "o-", ms=3, label="run − reference")
-        bottom.set(xlabel=f"{dims[0]} [{ux}]", ylabel=f"difference [{uv}]")
+        fd, ud = _scale(units, result["difference"])
+        bottom.plot(x, result["difference"].values[order] * fd, "o-", ms=3, label="run − reference")
+        bottom.axhline(0.0, color="k", lw=0.8)
+        diff = result["difference"].values * fd
+        if np.isfinite(diff).any():  # keep zero in view: the size of the difference shows
+            low, high = min(0.0, np.nanmin(diff)), max(0.0, np.nanmax(diff))
+            pad = 0.1 * (high - low) or 1.0
+            bottom.set_ylim(low - pad, high + pad)
+        bottom.set(xlabel=f"{dims[0]} [{ux}]", ylabel=f"difference [{ud}]")
         top.legend()
         bottom.legend()
     else:
@@ -278,8 +383,12 @@ def plot_case_vs_reference(result: xr.Dataset) -> Figure:
         ax.set(xlabel=f"reference {var} [{uv}]", ylabel=f"run {var} [{uv}]")
         ax.legend()
         bottom = ax
-    _note(bottom, f"max |diff| {float(result['max_abs_difference']) * fv:.4g} {uv}, "
-                  f"RMS {float(result['rms_difference']) * fv:.4g} {uv}")
+    fd, ud = _scale(units, result["difference"])
+    _note(
+        bottom,
+        f"max |diff| {float(result['max_abs_difference']) * fd:.4g} {ud}, "
+        f"RMS {float(result['rms_difference']) * fd:.4g} {ud}",
+    )
     return fig
 
 

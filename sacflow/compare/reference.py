@@ -203,8 +203,10 @@ def case_vs_reference(
     points = {d: ("point", frame[d].to_numpy(dtype=float) * coord_scale) for d in dims}
     ref_values = frame[value_name].to_numpy(dtype=float) * value_scale
     at = {d: xr.DataArray(v, dims="point") for d, (_, v) in points.items()}
-    run_values = np.asarray(field.interp(at).values, dtype=float) if dims else np.full(
-        ref_values.shape, float(field)
+    run_values = (
+        np.asarray(field.interp(at).values, dtype=float)
+        if dims
+        else np.full(ref_values.shape, float(field))
     )
     diff = run_values - ref_values
     inside = np.isfinite(diff)

@@ -1,0 +1,135 @@
+"""Campaign throughput: eight small elastic Hertz cases on 2 dask workers vs one after another.
+
+    python benchmarks/campaign.py [--cases 8] [--workers 2] [--nx 96] [--nz 16] [--increments 3]
+
+Prints JSON (never asserts): wall times of the serial runs (``run_case`` in this process, one
+FFT thread, then all cores) and of the campaign (``run_campaign`` on a new LocalCluster, which
+includes starting the cluster and the workers' imports), the speed-up, and the overhead per case:
+
+* ``overhead_per_case``: (workers x campaign wall - serial wall, 1 FFT thread) / cases, the
+  worker-seconds a case costs beyond its own work (cluster start, imports, dispatch, tail idle);
+* ``task_overhead_per_case``: (sum of the task wall times - serial wall) / cases, the part of it
+  spent inside the tasks (worker imports, FFT planning);
+* ``dispatch_overhead_per_case``: (workers x campaign wall - sum of the task times) / cases, the
+  part outside the tasks (cluster start and stop, scheduling, idle workers at the end);
+* ``cluster_start``: seconds to start and stop an empty LocalCluster of the same size.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def build_campaign(cases: int, nx: int, nz: int, increments: int):
+    """The shipped Hertz case at nx x nx x nz cells, ``cases`` loads from 0.2 N to 0.65 N."""
+    from sacflow.config import apply_overrides, read_file
+    from sacflow.schema import Campaign
+
+    base = apply_overrides(
+        read_file(ROOT / "configs" / "hertz-elastic.toml"),
+        [f"grid.nx={nx}", f"grid.ny={nx}", f"grid.nz={nz}", f"load_path.0.increments={increments}"],
+    )
+    loads = [round(0.2 + (0.65 - 0.2) * k / max(cases - 1, 1), 4) for k in range(cases)]
+    return Campaign(
+        name="bench",
+        base=base,
+        sweep=[{"mode": "zip", "parameters": {"load_path.0.to": loads}}],
+    )
+
+
+def serial(campaign, out: Path, fft_threads: str | None) -> tuple[float, list[float]]:
+    """Run every case with ``run_case`` in this process; wall time and per-case times."""
+    from sacflow.campaign import expand_campaign
+    from sacflow.runner import run_case
+
+    previous = os.environ.get("SACFLOW_FFT_THREADS")
+    if fft_threads is None:
+        os.environ.pop("SACFLOW_FFT_THREADS", None)
+    else:
+        os.environ["SACFLOW_FFT_THREADS"] = fft_threads
+    try:
+        start, times = time.perf_counter(), []
+        for c in expand_campaign(campaign):
+            times.append(run_case(c.case, out, progress=False, resume=False).wall_time)
+        return time.perf_counter() - start, times
+    finally:
+        if previous is None:
+            os.environ.pop("SACFLOW_FFT_THREADS", None)
+        else:
+            os.environ["SACFLOW_FFT_THREADS"] = previous
+
+
+def cluster_start(workers: int) -> float:
+    from distributed import Client, LocalCluster
+
+    start = time.perf_counter()
+    with (
+        LocalCluster(
+            n_workers=workers, threads_per_worker=1, processes=True, silence_logs=logging.ERROR
+        ) as cluster,
+        Client(cluster) as client,
+    ):
+        client.submit(sum, [1, 2]).result()
+    return time.perf_counter() - start
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--cases", type=int, default=8)
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--nx", type=int, default=96)
+    parser.add_argument("--nz", type=int, default=16)
+    parser.add_argument("--increments", type=int, default=3)
+    args = parser.parse_args()
+
+    from sacflow.campaign import run_campaign
+
+    campaign = build_campaign(args.cases, args.nx, args.nz, args.increments)
+    load_before = os.getloadavg()[0]  # other work on the machine skews every number (before/after)
+    with tempfile.TemporaryDirectory() as folder:
+        folder = Path(folder)
+        serial_1, case_times = serial(campaign, folder / "serial-1", "1")
+        serial_all, _ = serial(campaign, folder / "serial-all", None)
+        start = time.perf_counter()
+        summary = run_campaign(campaign, folder / "campaign", workers=args.workers, progress=False)
+        parallel = time.perf_counter() - start
+        task_times = [r.wall_time or 0.0 for r in summary.records]
+        failed = [r.name for r in summary.failed]
+    n = args.cases
+    result = {
+        "benchmark": "campaign",
+        "cases": n,
+        "workers": args.workers,
+        "cores": len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else None,
+        "grid": [args.nx, args.nx, args.nz],
+        "increments": args.increments,
+        "serial_wall_fft1": round(serial_1, 3),
+        "serial_wall_fft_all_cores": round(serial_all, 3),
+        "serial_case_times_fft1": [round(t, 3) for t in case_times],
+        "campaign_wall": round(parallel, 3),
+        "campaign_task_times": [round(t, 3) for t in task_times],
+        "speedup_vs_serial_fft1": round(serial_1 / parallel, 3),
+        "speedup_vs_serial_fft_all_cores": round(serial_all / parallel, 3),
+        "overhead_per_case": round((args.workers * parallel - serial_1) / n, 3),
+        "task_overhead_per_case": round((sum(task_times) - serial_1) / n, 3),
+        "dispatch_overhead_per_case": round((args.workers * parallel - sum(task_times)) / n, 3),
+        "cluster_start": round(cluster_start(args.workers), 3),
+        "failed": failed,
+        "targets": {"speedup": 1.8, "overhead_per_case": 0.5},
+        "load_average_1min": [round(load_before, 2), round(os.getloadavg()[0], 2)],
+        "python": sys.version.split()[0],
+    }
+    print(json.dumps(result, indent=2))
+
+
+if __name__ == "__main__":  # the dask workers are spawned processes: keep this guard
+    main()

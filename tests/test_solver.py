@@ -1,0 +1,140 @@
+"""Incremental elastic-plastic solver: limits, yield onset, consistency, unloading, errors."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from sacflow.config import case_from_dict
+from sacflow.errors import ConvergenceError
+from sacflow.plasticity import von_mises
+from sacflow.reference import composite_modulus, hertz_contact
+from sacflow.solver import Simulation
+
+E, NU, R = 210e9, 0.3, 105e-6
+
+
+def sphere_case(hardening, load_path, nx=32, nz=12, depth=None, **solver):
+    data = {
+        "name": "test",
+        "body": {"E": E, "nu": NU, "hardening": hardening},
+        "counterbody": {"kind": "rigid", "radius": R},
+        "grid": {"nx": nx, "ny": nx, "nz": nz, "half_width": 1.6},
+        "load_path": load_path,
+        "solver": solver,
+    }
+    if depth is not None:
+        data["grid"]["depth"] = depth
+    return case_from_dict(data)
+
+
+def run_all(case):
+    sim = Simulation(case)
+    return sim, list(sim.run())
+
+
+def load_for_ratio(ratio, sigma_y):
+    """Load W giving a Hertz peak pressure p0 = ratio · σ_Y (rigid sphere R on E, ν)."""
+    e_star = composite_modulus(E, NU)
+    p0 = ratio * sigma_y
+    a = np.pi * R * p0 / (2 * e_star)
+    return 2 * np.pi * a**2 * p0 / 3
+
+
+def test_elastic_limit_equals_elastic_solver():
+    path = [{"kind": "load", "to": 0.3, "increments": 2}, {"kind": "unload", "increments": 1}]
+    _, elastic = run_all(sphere_case({"law": "elastic"}, path, depth=8e-6))
+    sim, high = run_all(sphere_case(
+        {"law": "linear", "yield_stress": 1e15, "modulus": 0.0}, path, depth=8e-6))
+    for a, b in zip(elastic, high, strict=True):
+        assert_allclose(b.surface["pressure"], a.surface["pressure"], rtol=0, atol=1e-9 * 1e10,
+                        err_msg=f"pressure, step {a.step}")
+        assert_allclose(b.approach, a.approach, rtol=1e-12, atol=1e-18, err_msg="approach")
+    assert not sim.eqps.any(), "no plastic strain may appear"
+    assert_allclose(high[1].volume["stress"], elastic[1].volume["stress"], atol=1.0,
+                    err_msg="stress field")
+
+
+def test_yield_onset_at_hertz_ratio():
+    """First plastic strain at p0/σ_Y ≈ 1.61 (ν = 0.3, Johnson §6.2), bracketed within 2 %."""
+    sigma_y = 2e9
+    ratios = np.arange(1.54, 1.70, 0.02)
+    path = [{"kind": "load", "to": float(load_for_ratio(ratios[0], sigma_y)), "increments": 1}]
+    path += [{"kind": "load", "to": float(load_for_ratio(r, sigma_y)), "increments": 1}
+             for r in ratios[1:]]
+    case = sphere_case({"law": "linear", "yield_stress": sigma_y, "modulus": 0.1 * E}, path,
+                       nx=48, nz=32, depth=0.9 * hertz_contact(path[-1]["to"], R,
+                                                               composite_modulus(E, NU)).a)
+    sim = Simulation(case)
+    first = None
+    for state, ratio in zip(sim.run(), ratios, strict=True):
+        if sim.eqps.max() > 0:
+            first = ratio
+            break
+    assert first is not None, "no yield up to p0/σ_Y = 1.68"
+    assert 1.61 * 0.98 <= first <= 1.61 * 1.02 + 0.02, f"first yield at p0/σ_Y = {first}"
+    depth = sim.coords.x3[np.unravel_index(sim.eqps.argmax(), sim.eqps.shape)[2]]
+    a = hertz_contact(state.load, R, composite_modulus(E, NU)).a
+    assert 0.40 < depth / a < 0.56, f"first yield at x3 = {depth / a:.3f} a"
+
+
+@pytest.fixture(scope="module")
+def indentation():
+    """A coarse 190 mN Swift indentation: load in 4, unload in 2 increments."""
+    path = [{"kind": "load", "to": 0.19, "increments": 4}, {"kind": "unload", "increments": 2}]
+    case = sphere_case({"law": "swift", "B": 1240e6, "C": 30.0, "n": 0.085,
+                        "strain_unit": "microstrain"}, path, nx=32, nz=16)
+    sim = Simulation(case)
+    states, eqps = [], []
+    for state in sim.run():
+        states.append(state)
+        eqps.append(sim.eqps.copy())
+    return sim, states, eqps
+
+
+def test_consistency_at_convergence(indentation):
+    sim, states, _ = indentation
+    loaded = states[3]
+    vm = von_mises(loaded.volume["stress"])
+    sy = loaded.volume["yield_stress"]
+    tol = sim.case.solver.plasticity_tolerance
+    assert (vm <= sy * (1 + 1e-6)).all(), f"max VM/σ_Y = {(vm / sy).max()}"
+    active = loaded.volume["equivalent_plastic_strain"] > 0
+    assert active.any()
+    # on points that yielded in the last loading increment, von Mises equals the yield stress
+    just = active & (loaded.volume["equivalent_plastic_strain"] > 0)
+    assert_allclose(vm[just] / sy[just], 1.0, atol=max(10 * tol, 1e-5),
+                    err_msg="von Mises = σ_Y on plastic points")
+    trace = loaded.volume["plastic_strain"][..., :3].sum(-1)
+    assert np.abs(trace).max() < 1e-12 * np.abs(loaded.volume["plastic_strain"]).max() + 1e-16
+
+
+def test_no_plastic_strain_while_unloading(indentation):
+    _, states, eqps = indentation
+    assert_allclose(eqps[-1], eqps[3], atol=1e-12, err_msg="plastic strain changed on unloading")
+    assert states[-1].surface["residual_displacement"].max() > 0, "a residual indent remains"
+
+
+def test_unloading_curve_shifts_and_changes_shape(indentation):
+    """Seed Fig. 11: the unloading branch is not the elastic curve shifted (geometry effect)."""
+    sim, states, _ = indentation
+    e_star = composite_modulus(E, NU)
+    hertz_approach = [hertz_contact(s.load, R, e_star).approach for s in states]
+    loaded = states[3]
+    assert loaded.approach > hertz_approach[3], "elastic-plastic approach exceeds Hertz"
+    shift_top = loaded.approach - hertz_approach[3]
+    mid = states[4]
+    shift_mid = mid.approach - hertz_approach[4]
+    assert shift_mid > 0 and abs(shift_mid - shift_top) > 0.02 * shift_top, (
+        f"unloading branch: shift {shift_top:.3e} at max load, {shift_mid:.3e} mid-way")
+
+
+def test_plasticity_non_convergence_raises_named_error():
+    path = [{"kind": "load", "to": 0.19, "increments": 1}]
+    case = sphere_case({"law": "swift", "B": 1240e6, "C": 30.0, "n": 0.085,
+                        "strain_unit": "microstrain"}, path, nx=24, nz=8,
+                       plasticity_max_iterations=2)
+    with pytest.raises(ConvergenceError, match="plasticity.*step 0") as info:
+        run_all(case)
+    assert info.value.residual > case.solver.plasticity_tolerance
