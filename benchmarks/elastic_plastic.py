@@ -1,0 +1,84 @@
+"""Elastic-plastic solver: one load step at p0/σ_Y = 2 and the full nanoindentation-650mN case.
+
+The single step: rigid sphere R = 105 µm on E = 210 GPa, ν = 0.3, W = 0.65 N (Hertz p0 = 8.47
+GPa), linear hardening σ_Y = p0/2, H = 0.05 E, loaded in one increment, plasticity tolerance
+1e-6, on n × n surface cells (±1.5 a) with an n × n × n/2 cuboid box. Prints JSON.
+
+Usage: ``python benchmarks/elastic_plastic.py [--skip-case] [n ...]`` (default 32 64).
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+
+from _common import emit, isolated
+
+
+def one_step(n: int) -> dict:
+    import numpy as np
+
+    from sacflow.config import case_from_dict
+    from sacflow.solver import Simulation
+
+    E, p0 = 210e9, 8.4696e9
+    case = case_from_dict({
+        "name": f"hertz-step-{n}",
+        "body": {"E": E, "nu": 0.3,
+                 "hardening": {"law": "linear", "yield_stress": p0 / 2, "modulus": 0.05 * E}},
+        "counterbody": {"kind": "rigid", "radius": 105e-6},
+        "grid": {"nx": n, "ny": n, "nz": n // 2, "half_width": 1.5},
+        "load_path": [{"kind": "load", "to": 0.65, "increments": 1}],
+        "solver": {"plasticity_tolerance": 1e-6},
+    })
+    t0 = time.perf_counter()
+    sim = Simulation(case)
+    setup = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    state = next(iter(sim.run()))
+    wall = time.perf_counter() - t0
+    return {
+        "case": f"one load step, p0/sigma_Y = 2, box {n}x{n}x{n // 2}",
+        "cuboids": int(np.prod(sim.eqps.shape)),
+        "setup_s": round(setup, 3),
+        "step_s": round(wall, 3),
+        "residual_stress_applications": state.plasticity_iterations,
+        "contact_iterations": state.contact_iterations,
+        "plastic_cells": int((sim.eqps > 0).sum()),
+        "max_eqps": float(sim.eqps.max()),
+        "box_depth_over_a": float(sim.dz * sim.nz / case.hertz().a),
+    }
+
+
+def full_case(path: str) -> dict:
+    import numpy as np
+
+    from sacflow.config import load_case
+    from sacflow.solver import Simulation
+
+    case = load_case(path)
+    t0 = time.perf_counter()
+    sim = Simulation(case)
+    setup = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    iterations = [(s.plasticity_iterations, s.contact_iterations) for s in sim.run()]
+    wall = time.perf_counter() - t0
+    return {
+        "case": case.name,
+        "cuboids": int(np.prod(sim.eqps.shape)),
+        "steps": len(iterations),
+        "setup_s": round(setup, 3),
+        "run_s": round(wall, 3),
+        "residual_stress_applications_per_step": [i for i, _ in iterations],
+        "contact_iterations_per_step": [c for _, c in iterations],
+        "max_eqps": float(sim.eqps.max()),
+    }
+
+
+if __name__ == "__main__":
+    args = [a for a in sys.argv[1:] if not a.startswith("--")]
+    sizes = [int(a) for a in args] or [32, 64]
+    results = [isolated(one_step, n) for n in sizes]
+    if "--skip-case" not in sys.argv:
+        results.append(isolated(full_case, "configs/nanoindentation-650mN.toml"))
+    emit("elastic_plastic", results)
