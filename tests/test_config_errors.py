@@ -56,7 +56,7 @@ BAD_INPUTS = [
         ["body.hardening.strain_unit", "required field missing"],
     ),
     ("bad-output-field", TEXT, ['output.fields=["presure"]'], ["output.fields.0", "'pressure'"]),
-    ("bad-name", TEXT, ['name="Hertz Elastic"'], ["name", "lowercase"]),
+    ("bad-name", TEXT, ['name="Hertz Elastic"'], ["name", "letters, digits"]),
     (
         "missing-surface-file",
         TEXT,
