@@ -12,7 +12,12 @@ includes starting the cluster and the workers' imports), the speed-up, and the o
   spent inside the tasks (worker imports, FFT planning);
 * ``dispatch_overhead_per_case``: (workers x campaign wall - sum of the task times) / cases, the
   part outside the tasks (cluster start and stop, scheduling, idle workers at the end);
-* ``cluster_start``: seconds to start and stop an empty LocalCluster of the same size.
+* ``cluster_start``: seconds to start and stop an empty LocalCluster of the same size;
+* ``*_cpu``: CPU seconds (user + system) of the serial runs and of the campaign (this process and
+  its worker processes). Unlike wall times they barely change when other programs share the
+  machine: ``cpu_overhead_per_case`` = (campaign CPU - serial CPU) / cases, and
+  ``speedup_estimate_idle`` = serial CPU / (campaign CPU / workers), what the speed-up would be on
+  an idle machine with perfectly balanced workers.
 """
 
 from __future__ import annotations
@@ -21,6 +26,7 @@ import argparse
 import json
 import logging
 import os
+import resource
 import sys
 import tempfile
 import time
@@ -46,8 +52,8 @@ def build_campaign(cases: int, nx: int, nz: int, increments: int):
     )
 
 
-def serial(campaign, out: Path, fft_threads: str | None) -> tuple[float, list[float]]:
-    """Run every case with ``run_case`` in this process; wall time and per-case times."""
+def serial(campaign, out: Path, fft_threads: str | None) -> tuple[float, list[float], list[float]]:
+    """Run every case with ``run_case`` in this process: wall time, per-case wall and CPU."""
     from sacflow.campaign import expand_campaign
     from sacflow.runner import run_case
 
@@ -57,15 +63,23 @@ def serial(campaign, out: Path, fft_threads: str | None) -> tuple[float, list[fl
     else:
         os.environ["SACFLOW_FFT_THREADS"] = fft_threads
     try:
-        start, times = time.perf_counter(), []
+        start, times, cpus = time.perf_counter(), [], []
         for c in expand_campaign(campaign):
+            cpu_start = time.process_time()
             times.append(run_case(c.case, out, progress=False, resume=False).wall_time)
-        return time.perf_counter() - start, times
+            cpus.append(time.process_time() - cpu_start)
+        return time.perf_counter() - start, times, cpus
     finally:
         if previous is None:
             os.environ.pop("SACFLOW_FFT_THREADS", None)
         else:
             os.environ["SACFLOW_FFT_THREADS"] = previous
+
+
+def cpu(who: int = resource.RUSAGE_SELF) -> float:
+    """CPU seconds (user + system) of this process, or of its finished children."""
+    usage = resource.getrusage(who)
+    return usage.ru_utime + usage.ru_stime
 
 
 def cluster_start(workers: int) -> float:
@@ -97,12 +111,16 @@ def main() -> None:
     load_before = os.getloadavg()[0]  # other work on the machine skews every number (before/after)
     with tempfile.TemporaryDirectory() as folder:
         folder = Path(folder)
-        serial_1, case_times = serial(campaign, folder / "serial-1", "1")
-        serial_all, _ = serial(campaign, folder / "serial-all", None)
-        start = time.perf_counter()
+        cpu_start = cpu()
+        serial_1, case_times, case_cpu = serial(campaign, folder / "serial-1", "1")
+        serial_cpu = cpu() - cpu_start
+        serial_all, _, _ = serial(campaign, folder / "serial-all", None)
+        start, cpu_start = time.perf_counter(), cpu() + cpu(resource.RUSAGE_CHILDREN)
         summary = run_campaign(campaign, folder / "campaign", workers=args.workers, progress=False)
         parallel = time.perf_counter() - start
+        campaign_cpu = cpu() + cpu(resource.RUSAGE_CHILDREN) - cpu_start
         task_times = [r.wall_time or 0.0 for r in summary.records]
+        task_cpu = [r.cpu_time or 0.0 for r in summary.records]
         failed = [r.name for r in summary.failed]
     n = args.cases
     result = {
@@ -115,13 +133,19 @@ def main() -> None:
         "serial_wall_fft1": round(serial_1, 3),
         "serial_wall_fft_all_cores": round(serial_all, 3),
         "serial_case_times_fft1": [round(t, 3) for t in case_times],
+        "serial_case_cpu_fft1": [round(t, 3) for t in case_cpu],
         "campaign_wall": round(parallel, 3),
         "campaign_task_times": [round(t, 3) for t in task_times],
+        "campaign_task_cpu": [round(t, 3) for t in task_cpu],
         "speedup_vs_serial_fft1": round(serial_1 / parallel, 3),
         "speedup_vs_serial_fft_all_cores": round(serial_all / parallel, 3),
         "overhead_per_case": round((args.workers * parallel - serial_1) / n, 3),
         "task_overhead_per_case": round((sum(task_times) - serial_1) / n, 3),
         "dispatch_overhead_per_case": round((args.workers * parallel - sum(task_times)) / n, 3),
+        "serial_cpu_fft1": round(serial_cpu, 3),
+        "campaign_cpu": round(campaign_cpu, 3),
+        "cpu_overhead_per_case": round((campaign_cpu - serial_cpu) / n, 3),
+        "speedup_estimate_idle": round(serial_cpu / (campaign_cpu / args.workers), 3),
         "cluster_start": round(cluster_start(args.workers), 3),
         "failed": failed,
         "targets": {"speedup": 1.8, "overhead_per_case": 0.5},
