@@ -104,44 +104,46 @@ def solve_contact(
     if load_control:
         p *= load / (cell_area * p.sum())
 
+    # Flat views and float masks: dot products (BLAS) instead of boolean gathers.
+    shape = h.shape
+    h = h.ravel()
+    p = p.ravel()
     t = np.zeros_like(h)
     g_norm_old = 1.0
     conjugate = False
-    u = compliance(p)
+    u = compliance(p.reshape(shape)).ravel()
     exact_age = 0
     scale = max(float(np.ptp(h)), 1e-300)
     change = np.inf
+    gap = np.empty_like(h)
     for iteration in range(1, max_iter + 1):
-        gap = h + u
-        in_contact = p > 0.0
-        if not np.any(in_contact):
-            in_contact = gap <= gap.min()
-            p[in_contact] = 0.0
-        if load_control:
-            delta = float(gap[in_contact].mean())
-        else:
-            delta = float(approach)
+        np.add(h, u, out=gap)
+        mask = (p > 0.0).astype(float)
+        n_contact = mask.sum()
+        if n_contact == 0.0:
+            mask = (gap <= gap.min()).astype(float)
+            n_contact = mask.sum()
+        delta = float(gap @ mask) / n_contact if load_control else float(approach)
         gap -= delta
-        g_c = gap[in_contact]
-        g_norm = float(g_c @ g_c)
+        g = gap * mask
+        g_norm = float(g @ g)
         if conjugate:
-            t[in_contact] = g_c + (g_norm / g_norm_old) * t[in_contact]
+            t *= (g_norm / g_norm_old) * mask
+            t += g
         else:
-            t[in_contact] = g_c
-        t[~in_contact] = 0.0
+            t[:] = g
         g_norm_old = g_norm
-        r = compliance(t)
-        r_c = r[in_contact]
+        r = compliance(t.reshape(shape)).ravel()
+        r_t = float(r @ t)
         if load_control:
-            r_c = r_c - r_c.mean()
-        denom = float(r_c @ t[in_contact])
-        tau = float(g_c @ t[in_contact]) / denom if denom != 0.0 else 0.0
+            r_t -= float(r @ mask) / n_contact * float(t.sum())
+        tau = float(g @ t) / r_t if r_t != 0.0 else 0.0
         p_old = p.copy()
         p -= tau * t
-        clipped = bool(np.any(p < 0.0))
+        clipped = bool(p.min() < 0.0)
         np.maximum(p, 0.0, out=p)
         overlap = (p == 0.0) & (gap < 0.0)
-        conjugate = not np.any(overlap)
+        conjugate = not overlap.any()
         if not conjugate:
             p[overlap] -= tau * gap[overlap]
         rescale = 1.0
@@ -153,21 +155,24 @@ def solve_contact(
                 )
             rescale = load / total
             p *= rescale
-        change = float(np.abs(p - p_old).sum() / max(p.sum(), 1e-300))
+        p_old -= p
+        change = float(np.abs(p_old).sum() / max(p.sum(), 1e-300))
         # u = K p by linearity (u ← s (u − τ K t)) when the step was neither clipped nor
         # corrected on overlapping cells; an exact FFT evaluation otherwise and periodically.
         if conjugate and not clipped and exact_age < _REFRESH_EVERY:
-            u = rescale * (u - tau * r)
+            u -= tau * r
+            u *= rescale
             exact_age += 1
         else:
-            u = compliance(p)
+            u = compliance(p.reshape(shape)).ravel()
             exact_age = 0
-        if change < tol and not np.any(overlap):
+        if change < tol and conjugate:
             break
     else:
         raise ConvergenceError(
             "contact", step=step, residual=change, tolerance=tol, iterations=max_iter
         )
+    h, p = h.reshape(shape), p.reshape(shape)
     u = compliance(p)
     gap = h + u
     contact = p > 0.0

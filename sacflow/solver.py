@@ -311,12 +311,13 @@ class Simulation:
     def _plastic_newton(self, sig_pr: np.ndarray, x: np.ndarray, step: int):
         """Plastic strain increment for a given pressure stress (seed Fig. 4).
 
-        Solves ``x = G(x) = Δεp_return(σ^pr + σ^r(εp_old + x) + 2μ x)``. Fixed-point (Picard)
-        sweeps are used while they contract fast (residual at least halved per sweep: one
-        residual-stress application each); then semismooth Newton: the Jacobian
-        ``I − T (A + 2μ)`` (``T`` the algorithmic tangent of the return, ``A`` the residual-stress
-        operator) is inverted matrix-free by GMRES, with a backtracking line search on the
-        max-norm residual. Returns ``(Δεp, Δp, residual-stress applications)``.
+        Solves ``x = G(x) = Δεp_return(σ^pr + σ^r(εp_old + x) + 2μ x)``. Fixed-point sweeps
+        (one residual-stress application each) accelerated by Anderson mixing; without
+        acceleration, plain sweeps while they at least halve the residual. When the sweeps stall
+        (no halving of the best residual in 25 sweeps) it switches to semismooth Newton: the
+        Jacobian ``I − T (A + 2μ)`` (``T`` the algorithmic tangent of the return, ``A`` the
+        residual-stress operator) is inverted matrix-free by GMRES, with a backtracking line
+        search on the max-norm residual. Returns ``(Δεp, Δp, residual-stress applications)``.
         """
         opts = self.case.solver
         tol = opts.plasticity_tolerance
@@ -343,14 +344,22 @@ class Simulation:
             return LinearOperator((n, n), matvec=matvec, dtype=float)
 
         trial, ret, res = evaluate(x)
-        newton, res_prev = False, np.inf
+        newton, res_prev, best, stalled = False, np.inf, np.inf, 0
+        mixer = AndersonMixer(opts.anderson_depth) if opts.acceleration == "anderson" else None
         for iteration in range(1, opts.plasticity_max_iterations + 1):
             if res < tol or (not ret.plastic.any() and not x.any()):
                 return ret.plastic_strain_increment, ret.eqps_increment, applications
-            newton = newton or res > 0.5 * res_prev
+            if mixer is None:
+                newton = newton or res > 0.5 * res_prev
+            else:  # Anderson stalls on some active-set changes: fall back to Newton
+                if res < 0.5 * best:
+                    best, stalled = res, 0
+                stalled += 1
+                newton = newton or stalled > 25
             res_prev = res
             if not newton:
-                x = ret.plastic_strain_increment
+                gx = ret.plastic_strain_increment
+                x = gx if mixer is None else mixer.step(x.ravel(), gx.ravel()).reshape(shape)
                 trial, ret, res = evaluate(x)
                 log.debug("step %d sweep %d: residual %.3e", step, iteration, res)
                 continue

@@ -64,7 +64,7 @@ def test_fft_operator_equals_direct_summation():
 
 
 def block_field(shape, dz, rng):
-    """Random eigenstrain uniform on 2×2 (lateral) × 1 (depth) blocks, 2–4 deep: grid-independent."""
+    """Random eigenstrain uniform on 2×2×1 blocks, 2 to 4 deep: independent of the grid."""
     eps = np.zeros((*shape, 6))
     src = rng.standard_normal((4, 4, 2, 6)) * 1e-3
     k0, kb = int(round(2 / dz)), int(round(1 / dz))

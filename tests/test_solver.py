@@ -67,15 +67,16 @@ def test_yield_onset_at_hertz_ratio():
                        nx=48, nz=32, depth=0.9 * hertz_contact(path[-1]["to"], R,
                                                                composite_modulus(E, NU)).a)
     sim = Simulation(case)
-    first = None
+    first, load = None, None
     for state, ratio in zip(sim.run(), ratios, strict=True):
+        load = state.load
         if sim.eqps.max() > 0:
             first = ratio
             break
     assert first is not None, "no yield up to p0/σ_Y = 1.68"
     assert 1.61 * 0.98 <= first <= 1.61 * 1.02 + 0.02, f"first yield at p0/σ_Y = {first}"
     depth = sim.coords.x3[np.unravel_index(sim.eqps.argmax(), sim.eqps.shape)[2]]
-    a = hertz_contact(state.load, R, composite_modulus(E, NU)).a
+    a = hertz_contact(load, R, composite_modulus(E, NU)).a
     assert 0.40 < depth / a < 0.56, f"first yield at x3 = {depth / a:.3f} a"
 
 

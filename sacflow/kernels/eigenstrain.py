@@ -234,7 +234,7 @@ class HalfSpaceEigenstrain:
             arr.flags.writeable = False
 
     def _sigma33(self, x1: np.ndarray, x2: np.ndarray, x3: float, source: int) -> np.ndarray:
-        """σ33 of the infinite-space cuboid of unit eigenstrain ``source`` at offsets (x1, x2, x3)."""
+        """σ33 of the infinite-space cuboid of unit eigenstrain ``source`` at (x1, x2, x3)."""
         d1, d2, d3 = self.spacing
         return cuboid_stress_component(
             x1, x2, x3, d1 / 2, d2 / 2, d3 / 2, self.nu, self.mu, source

@@ -62,7 +62,8 @@ def _planner_flag() -> str:
     Measured on this project's 2-core machine, ``FFTW_MEASURE`` plans take 1–4 s for the
     operator shapes and gain < 10 % per transform, so estimation is the default.
     """
-    return "FFTW_MEASURE" if os.environ.get("SACFLOW_FFTW_PLANNER") == "measure" else "FFTW_ESTIMATE"
+    measure = os.environ.get("SACFLOW_FFTW_PLANNER") == "measure"
+    return "FFTW_MEASURE" if measure else "FFTW_ESTIMATE"
 
 
 def padded_length(n_in: int, n_out: int) -> int:
