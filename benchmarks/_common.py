@@ -13,12 +13,19 @@ import resource
 import sys
 import time
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
+
+#: Repository root: benchmarks find the shipped configs from here, wherever they are run from.
+ROOT = Path(__file__).resolve().parent.parent
 
 
 def _child(func: Callable[..., dict], args: tuple, queue) -> None:
-    result = func(*args)
-    result["peak_memory_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    try:
+        result = func(*args)
+        result["peak_memory_mb"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    except Exception as exc:  # report, do not hang the parent
+        result = {"error": f"{type(exc).__name__}: {exc}", "args": [str(a) for a in args]}
     queue.put(result)
 
 

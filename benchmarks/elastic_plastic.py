@@ -12,7 +12,7 @@ from __future__ import annotations
 import sys
 import time
 
-from _common import emit, isolated
+from _common import ROOT, emit, isolated
 
 
 def one_step(n: int) -> dict:
@@ -80,5 +80,5 @@ if __name__ == "__main__":
     sizes = [int(a) for a in args] or [32, 64]
     results = [isolated(one_step, n) for n in sizes]
     if "--skip-case" not in sys.argv:
-        results.append(isolated(full_case, "configs/nanoindentation-650mN.toml"))
+        results.append(isolated(full_case, str(ROOT / "configs/nanoindentation-650mN.toml")))
     emit("elastic_plastic", results)

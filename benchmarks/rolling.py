@@ -13,7 +13,7 @@ from __future__ import annotations
 import sys
 import time
 
-from _common import emit, isolated
+from _common import ROOT, emit, isolated
 
 
 def measure(factor: int) -> dict:
@@ -26,7 +26,7 @@ def measure(factor: int) -> dict:
     if factor > 1:
         overrides = [f"grid.nx={24 * factor}", f"grid.ny={24 * factor}",
                      f"grid.nz={11 * factor}", f"load_path.1.steps={170 * factor}"]
-    case = load_case("configs/rolling-smooth.toml", overrides)
+    case = load_case(ROOT / "configs/rolling-smooth.toml", overrides)
     t0 = time.perf_counter()
     sim = Simulation(case)
     setup = time.perf_counter() - t0
