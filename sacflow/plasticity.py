@@ -25,6 +25,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sacflow.reference import von_mises  # one implementation, re-exported here
+
 __all__ = ["DepthScaled", "Elastic", "HardeningLaw", "Linear", "PerfectlyPlastic",
            "ReturnMappingError", "ReturnResult", "ReturnTangent", "Swift", "Tabular", "deviator",
            "double_contraction", "equivalent_strain", "hardening_from_schema", "radial_return",
@@ -43,14 +45,6 @@ def deviator(stress: np.ndarray) -> np.ndarray:
     s = np.array(stress, dtype=float)
     s[..., :3] -= ((s[..., 0] + s[..., 1] + s[..., 2]) / 3.0)[..., None]
     return s
-
-
-def von_mises(stress: np.ndarray) -> np.ndarray:
-    """Return the von Mises stress q = sqrt(3/2 s:s) of (..., 6) stresses (Simo & Hughes §3.3)."""
-    t = np.asarray(stress, dtype=float)
-    a, b, c = t[..., 0], t[..., 1], t[..., 2]
-    j2x6 = (a - b) ** 2 + (b - c) ** 2 + (c - a) ** 2 + 6.0 * np.sum(t[..., 3:] ** 2, axis=-1)
-    return np.sqrt(0.5 * j2x6)
 
 
 def equivalent_strain(strain6: np.ndarray) -> np.ndarray:

@@ -200,7 +200,6 @@ class Simulation:
             ]
 
         self.compliance = Convolution(love, window, window, threads=self.threads)
-        self.nz = self.coords.x3.size if hasattr(self, "coords") else self.nz
         z = (np.arange(self.nz) + 0.5) * self.dz
 
         def stresses(d1, d2):
