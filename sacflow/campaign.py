@@ -68,6 +68,17 @@ __all__ = [
 
 #: Environment variable read by the FFT operators; campaign workers default to 1 thread each.
 FFT_THREADS_ENV = "SACFLOW_FFT_THREADS"
+#: Environment of the local cluster's workers: n single-threaded cases on n cores, not n × cores
+#: FFT or BLAS threads. OpenMP and BLAS read theirs when numpy loads, so the worker processes
+#: (or the fork server they are forked from) start with them.
+WORKER_ENV = {
+    FFT_THREADS_ENV: "1",
+    "OMP_NUM_THREADS": "1",
+    "OPENBLAS_NUM_THREADS": "1",
+    "MKL_NUM_THREADS": "1",
+}
+#: Modules the fork server imports once, before forking the local cluster's workers.
+WORKER_PRELOAD = ("distributed", "sacflow.campaign", "sacflow.runner", "sacflow.solver")
 #: Case names longer than this end in a digest of the parameters instead of all the tags.
 MAX_NAME = 120
 WORKER_DIED = (
@@ -533,6 +544,8 @@ class _Manifest:
     def __init__(self, campaign: Campaign, cases: list[CampaignCase], out_dir: Path) -> None:
         self.campaign = campaign
         self.path = out_dir / f"{campaign.name}.manifest.json"
+        for stale in out_dir.glob(f".{self.path.name}.*.tmp"):  # a campaign killed mid-write
+            stale.unlink(missing_ok=True)
         previous = self._previous()
         self.records = {}
         for c in cases:
@@ -663,11 +676,14 @@ def _run_pending(
 ) -> None:
     from distributed import as_completed
 
+    # Longest first (dask runs tasks in submission order): a long case started last would keep
+    # one worker busy while the others idle. Equal estimates keep the campaign order.
+    ordered = sorted(pending, key=_estimated_cost, reverse=True)
     futures = {
         client.submit(
             run_one, c.case.canonical_json(), str(out_dir), simulation_factory, pure=False
         ): c
-        for c in pending
+        for c in ordered
     }
     failed = 0
     bar = tqdm(total=len(futures), desc=manifest.campaign.name, unit="case", disable=not progress)
@@ -688,13 +704,19 @@ def _run_pending(
             bar.update()
 
 
+def _estimated_cost(c: CampaignCase) -> int:
+    """Relative cost of a case: grid cells x steps (plasticity or rolling not weighed)."""
+    grid = c.case.grid
+    steps = sum(getattr(s, "increments", None) or getattr(s, "steps", 1) for s in c.case.load_path)
+    return grid.nx * grid.ny * grid.nz * steps
+
+
 @contextmanager
 def _client(scheduler: str | None, workers: int | None, tasks: int) -> Iterator[Any]:
     """A dask client: on ``scheduler``, or on a new local cluster closed at the end."""
-    import dask
-    from distributed import Client, LocalCluster
-
     if scheduler:
+        from distributed import Client
+
         try:
             client = Client(scheduler, timeout="10s")
         except (OSError, TimeoutError) as exc:
@@ -706,22 +728,77 @@ def _client(scheduler: str | None, workers: int | None, tasks: int) -> Iterator[
             yield client
         return
     n = min(workers or _cores(), tasks)
-    # dask sets MALLOC_TRIM_THRESHOLD_ in its workers, which turns off glibc's adaptive mmap
-    # threshold: every large temporary array is then mapped and zero-filled afresh, and the
-    # solver runs about 1.6 times slower (measured on a 96 x 96 x 16 elastic case). Unset it.
-    with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}):
+    method = _start_fork_server()  # first: its imports overlap the scheduler's start below
+    import dask
+    from distributed import Client, LocalCluster
+
+    config = {
+        # dask sets MALLOC_TRIM_THRESHOLD_ in its workers, which turns off glibc's adaptive mmap
+        # threshold: every large temporary array is then mapped and zero-filled afresh, and the
+        # solver runs about 1.6 times slower (measured on a 96 x 96 x 16 elastic case). Unset it.
+        "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
+        "distributed.worker.multiprocessing-method": method,
+    }
+    # For the cluster's whole life: a worker that died is started again the same way. Spawned
+    # workers inherit this process's environment, forked ones the fork server's.
+    with dask.config.set(config), _environ(_worker_environ() if method == "spawn" else {}):
         cluster = LocalCluster(
             n_workers=n,
             threads_per_worker=1,
             processes=True,
             silence_logs=logging.ERROR,
-            env={FFT_THREADS_ENV: "1"},  # n single-threaded cases, not n × cores FFT threads
+            env=dict(WORKER_ENV),
         )
+        try:
+            with Client(cluster) as client:
+                yield client
+        finally:
+            cluster.close()
+
+
+def _start_fork_server() -> str:
+    """Start multiprocessing's fork server for the local cluster; return the start method.
+
+    The fork server imports :data:`WORKER_PRELOAD` once; the workers forked from it start with
+    everything a case needs loaded (a spawned worker imports it all again, about 1 s of a core
+    each) and exit at once (a spawned one tears down its interpreter, about 1 s at the end of a
+    campaign). It is started once per process, in the environment of :func:`_worker_environ`;
+    a fork server already running (started elsewhere in this process) is used as it is.
+    ``spawn`` where there is no fork server (Windows).
+    """
+    import multiprocessing
+    from multiprocessing import forkserver
+
+    if "forkserver" not in multiprocessing.get_all_start_methods():  # pragma: no cover
+        return "spawn"
+    forkserver.set_forkserver_preload(list(WORKER_PRELOAD))
+    with _environ(_worker_environ()):
+        forkserver.ensure_running()  # returns once started; the imports go on in the server
+    return "forkserver"
+
+
+def _worker_environ() -> dict[str, str | None]:
+    """Environment changes for the worker processes (None: unset)."""
+    return {**WORKER_ENV, "MALLOC_TRIM_THRESHOLD_": None}
+
+
+@contextmanager
+def _environ(changes: Mapping[str, str | None]) -> Iterator[None]:
+    """Apply ``changes`` to ``os.environ`` (None: unset) inside the block, then restore it."""
+    saved = {key: os.environ.get(key) for key in changes}
     try:
-        with Client(cluster) as client:
-            yield client
+        for key, value in changes.items():
+            if value is None:
+                os.environ.pop(key, None)
+            else:
+                os.environ[key] = value
+        yield
     finally:
-        cluster.close()
+        for key, value in saved.items():
+            if value is None:
+                os.environ.pop(key, None)
+            else:
+                os.environ[key] = value
 
 
 def _cores() -> int:

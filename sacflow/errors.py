@@ -7,7 +7,13 @@ Numerical failures are raised, never returned as a flag to forget (STYLE 7).
 
 from __future__ import annotations
 
-__all__ = ["ConfigError", "ConvergenceError", "GridTooLargeError", "SacflowError"]
+__all__ = [
+    "BoxTooShallowError",
+    "ConfigError",
+    "ConvergenceError",
+    "GridTooLargeError",
+    "SacflowError",
+]
 
 
 class SacflowError(Exception):
@@ -64,3 +70,32 @@ class ConvergenceError(SacflowError):
 
 class GridTooLargeError(SacflowError):
     """The requested grid needs more memory or cells than this machine or solver allows."""
+
+
+class BoxTooShallowError(SacflowError):
+    """Plastic strain reached the bottom layer of the cuboid box: the box must be deeper.
+
+    :func:`sacflow.runner.run_case` catches it, grows the box to ``new_depth`` with
+    ``new_nz`` layers (the same layer thickness) and runs the case again, saying so.
+
+    Parameters
+    ----------
+    step : int
+        Increment at which it happened.
+    depth, new_depth : float
+        Box depth now and the suggested one [m].
+    nz, new_nz : int
+        Cuboid layers now and for the suggested depth.
+    """
+
+    def __init__(self, step: int, depth: float, nz: int, new_depth: float, new_nz: int) -> None:
+        self.step, self.depth, self.nz = step, depth, nz
+        self.new_depth, self.new_nz = new_depth, new_nz
+        super().__init__(
+            f"step {step}: plastic strain reached the bottom of the cuboid box (depth "
+            f"{depth:.4g} m, {nz} layers); set grid.depth = {new_depth:.4g} and grid.nz = "
+            f"{new_nz} (sacflow run does this by itself)"
+        )
+
+    def __reduce__(self):  # picklable for dask workers
+        return (type(self), (self.step, self.depth, self.nz, self.new_depth, self.new_nz))

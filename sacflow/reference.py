@@ -23,7 +23,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.optimize import minimize_scalar
 
 __all__ = [
     "HertzContact",
@@ -327,6 +326,8 @@ def first_yield(nu: float) -> tuple[float, float, float]:
     vm_over_p0 : float
         Maximum von Mises stress over p0 (≈ 0.62).
     """
+
+    from scipy.optimize import minimize_scalar  # lazily: scipy.optimize costs ~0.3 s to import
 
     def neg_vm(zeta: float) -> float:
         sr, sz = hertz_axis_stress(zeta, 1.0, 1.0, nu)

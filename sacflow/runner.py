@@ -10,6 +10,7 @@ interrupted run are not written again.
 from __future__ import annotations
 
 import time
+import warnings
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -17,6 +18,7 @@ from typing import Protocol
 
 from tqdm.auto import tqdm
 
+from sacflow.errors import BoxTooShallowError
 from sacflow.schema import Case
 from sacflow.state import GridCoords, State
 from sacflow.store import RunWriter, completed_steps, is_complete, read_scalars
@@ -100,7 +102,39 @@ def run_case(
     path = out_dir / f"{case.name}.nc"
     if resume and is_complete(path, case.case_id):
         return _summary(case, path, start, resumed=0, skipped=True)
-    sim = (simulation_factory or _default_factory())(case)
+    requested = case.case_id
+    factory = simulation_factory or _default_factory()
+    for growth in range(_MAX_GROWTHS + 1):
+        try:
+            done = _run_once(case, path, factory, progress, resume, requested)
+            break
+        except BoxTooShallowError as exc:
+            if growth == _MAX_GROWTHS:
+                raise
+            case = _deeper(case, exc)
+            message = (f"{case.name}: plastic strain reached the bottom of the cuboid box at step "
+                       f"{exc.step}; running again with depth {exc.depth:.4g} -> "
+                       f"{exc.new_depth:.4g} m ({exc.nz} -> {exc.new_nz} layers)")
+            warnings.warn(message, RuntimeWarning, stacklevel=2)
+            if progress:
+                tqdm.write(message)
+    return _summary(case, path, start, resumed=done, skipped=False)
+
+
+#: How many times a run may deepen its cuboid box (×1.5 each) before giving up.
+_MAX_GROWTHS = 3
+
+
+def _run_once(
+    case: Case,
+    path: Path,
+    factory: Callable[[Case], Simulation],
+    progress: bool,
+    resume: bool,
+    requested: str,
+) -> int:
+    """One attempt of :func:`run_case`; returns the number of steps resumed (not rewritten)."""
+    sim = factory(case)
     done = completed_steps(path, case.case_id) if resume else 0
     writer = RunWriter(
         path,
@@ -109,6 +143,7 @@ def run_case(
         fields=case.output.fields,
         compression=case.output.compression,
         resume=resume,
+        requested_case_id=requested,
     )
     bar = tqdm(total=sim.total_steps, desc=case.name, unit="step", disable=not progress)
     with bar, writer:
@@ -117,7 +152,14 @@ def run_case(
                 writer.append(state)
             bar.set_postfix(_postfix(state), refresh=False)
             bar.update()
-    return _summary(case, path, start, resumed=done, skipped=False)
+    return done
+
+
+def _deeper(case: Case, exc: BoxTooShallowError) -> Case:
+    """``case`` with the deeper cuboid box that ``exc`` asks for."""
+    data = case.model_dump()
+    data["grid"] = {**data["grid"], "depth": exc.new_depth, "nz": exc.new_nz}
+    return Case.model_validate(data)
 
 
 def _default_factory() -> Callable[[Case], Simulation]:

@@ -345,6 +345,11 @@ class SolverOptions(Model):
     plasticity_max_iterations: PositiveInt = Field(500, description="plasticity iteration limit")
     coupling_tolerance: PositiveFloat = Field(1e-6, description="contact-plasticity tolerance")
     coupling_max_iterations: PositiveInt = Field(200, description="coupling iteration limit")
+    scheme: Literal["coupled", "nested"] = Field(
+        "coupled",
+        description="'coupled': one fixed point on the plastic strain increment, the contact "
+        "re-solved at every evaluation; 'nested': the seed's loops (contact <-> plasticity)",
+    )
     acceleration: Literal["anderson", "none"] = Field(
         "anderson", description="fixed-point acceleration"
     )

@@ -10,7 +10,9 @@ where ``R`` is the fully implicit J2 radial return (:func:`sacflow.plasticity.ra
 residual surface displacement of the plastic strain (:mod:`sacflow.kernels.eigenstrain`). The
 seed nests two loops (contact ↔ plastic strain); here both are one fixed point accelerated by
 Anderson mixing (:mod:`sacflow.anderson`), the contact being re-solved (warm-started) at every
-evaluation. At convergence the seed's two criteria hold: the plastic strain increment and the
+evaluation (``solver.scheme = "nested"`` runs the seed's two loops instead; both converge to the
+same increment, the single loop with about a third of the residual-stress applications on the
+benchmarks). At convergence the seed's two criteria hold: the plastic strain increment and the
 residual displacement increment have stopped changing, and von Mises = σ_Y on plastic points.
 
 Load paths: ``load`` / ``unload`` segments change the normal load in equal increments, ``hold``
@@ -34,7 +36,7 @@ from scipy.sparse.linalg import LinearOperator, gmres
 
 from sacflow.anderson import AndersonMixer
 from sacflow.contact import ContactResult, solve_contact
-from sacflow.errors import ConvergenceError, SacflowError
+from sacflow.errors import BoxTooShallowError, ConvergenceError, SacflowError
 from sacflow.geometry import curvature_gap, features_gap
 from sacflow.kernels.eigenstrain import HalfSpaceEigenstrain
 from sacflow.kernels.fft import Convolution
@@ -48,10 +50,14 @@ from sacflow.plasticity import (
 )
 from sacflow.reference import composite_modulus, hertz_axis_stress
 from sacflow.state import GridCoords, State
+from sacflow.threads import single_threaded_blas
 
 __all__ = ["Simulation", "StepPlan", "plan_steps"]
 
 log = logging.getLogger(__name__)
+
+#: Factor by which a too shallow cuboid box is deepened (see Simulation._check_box).
+_GROWTH = 1.5
 
 
 @dataclass(frozen=True)
@@ -279,49 +285,103 @@ class Simulation:
         if not self.plastic:
             result = solve(self.residual_displacement)
             return Increment(sl, geometry, result, None, contact_iterations, 0)
-        # Outer loop (seed Fig. 5): contact on the geometry updated by the residual
-        # displacement <-> plastic strain increment for that pressure (seed Fig. 4), solved by
-        # semismooth Newton–Krylov (Frérot et al., CMAME 351 (2019) 951).
+        if opts.scheme == "coupled":
+            result, update, applications = self._coupled(solve, sl, step)
+        else:
+            result, update, applications = self._nested(solve, sl, step)
+        return Increment(sl, geometry, result, update, contact_iterations, applications)
+
+    def _coupled(self, solve, sl, step: int):
+        """Plastic strain increment as one fixed point, the contact solved at every evaluation.
+
+        ``G(x) = R(σ^pr(p(x)) + σ^r(εp_old + x) + 2μ x)`` with ``p(x)`` the contact pressure on
+        the gap updated by ``u3^r(εp_old + x)`` (module docstring); residual stress and residual
+        displacement share one forward transform, the contact is warm-started. Converged when
+        the relative plastic residual is below ``plasticity_tolerance`` and the residual
+        displacement moved by less than ``coupling_tolerance`` (relative to its change over the
+        increment) between the last two evaluations. Returns ``(contact, (Δεp, Δp),
+        residual-stress applications)``.
+        """
+        opts = self.case.solver
+        u_old = self.residual_displacement
+        last = {"u": None, "result": None, "du": np.inf}
+
+        def residual_fields(x):
+            if not x.any():  # the fields of εp_old are known: no application
+                return self.residual_stress, u_old, 0
+            stress, u = self.eigen.residual_stress(self.plastic_strain + x, with_displacement=True)
+            return stress, u, 1
+
+        def sigma(x):
+            stress, u, apps = residual_fields(x)
+            result = solve(u)
+            if last["u"] is not None:
+                scale = max(float(np.abs(u - u_old).max()), 1e-300)
+                last["du"] = float(np.abs(u - last["u"]).max()) / scale
+            last["u"], last["result"] = u, result
+            return self._pressure_stress(result.pressure, sl) + stress, apps
+
+        def converged(res: float) -> bool:
+            return res < opts.plasticity_tolerance and last["du"] < opts.coupling_tolerance
+
+        x = np.zeros(self.plastic_strain.shape)  # a moved copy of the last increment: worse
+        dx, dp, applications = self._fixed_point(sigma, x, step, converged, "plasticity")
+        return last["result"], (dx, dp), applications
+
+    def _nested(self, solve, sl, step: int):
+        """The seed's nested loops (Fig. 5): contact ↔ plastic fixed point for fixed pressure.
+
+        The outer loop runs on the residual displacement (Anderson-accelerated); each inner
+        plastic solve is inexact (a tenth of the last coupling change, never looser than 1e-2)
+        until the coupling has converged. Returns like :meth:`_coupled`.
+        """
+        opts = self.case.solver
         x = np.zeros(self.plastic_strain.shape)
         u_old = self.residual_displacement
         u_used = u_old
-        newton_total = 0
+        applications = 0
         floor = 1e-300
         depth = opts.anderson_depth if opts.acceleration == "anderson" else 0
         mixer = AndersonMixer(depth)  # on the residual displacement (the seed's loop variable)
-        # Inexact inner solves: the plastic fixed point is solved to a tenth of the last coupling
-        # change (never looser than 1e-2), and to full tolerance once the coupling has converged.
         inner_tol = 1e-2
+        change = np.inf
         for _ in range(opts.coupling_max_iterations):
             result = solve(u_used)
             sig_pr = self._pressure_stress(result.pressure, sl)
             tol = max(inner_tol, opts.plasticity_tolerance)
-            x, dp, n_newton = self._plastic_newton(sig_pr, x, step, tol)
-            newton_total += n_newton
+
+            def sigma(x, sig_pr=sig_pr):
+                return sig_pr + self.eigen.residual_stress(self.plastic_strain + x), 1
+
+            x, dp, n_apps = self._fixed_point(
+                sigma, x, step, lambda res, tol=tol: res < tol, "plasticity")
+            applications += n_apps
             if not dp.any():
-                return Increment(sl, geometry, result, (x, dp), contact_iterations, newton_total)
+                return result, (x, dp), applications
             u_new = self.eigen.residual_displacement(self.plastic_strain + x)
             scale = max(np.abs(u_new - u_old).max(), floor)
             change = float(np.abs(u_new - u_used).max() / scale)
             log.debug("step %d coupling: residual displacement change %.3e", step, change)
             if change < opts.coupling_tolerance and inner_tol <= opts.plasticity_tolerance:
-                return Increment(sl, geometry, result, (x, dp), contact_iterations, newton_total)
+                return result, (x, dp), applications
             inner_tol = 0.0 if change < opts.coupling_tolerance else min(inner_tol, 0.1 * change)
             u_used = mixer.step(u_used.ravel(), u_new.ravel()).reshape(u_new.shape)
         raise ConvergenceError("coupling", step=step, residual=change,
                                tolerance=opts.coupling_tolerance,
                                iterations=opts.coupling_max_iterations)
 
-    def _plastic_newton(self, sig_pr: np.ndarray, x: np.ndarray, step: int, tol: float):
-        """Plastic strain increment for a given pressure stress (seed Fig. 4).
+    def _fixed_point(self, sigma, x: np.ndarray, step: int, converged, what: str):
+        """Plastic strain increment ``x = G(x) = Δεp_return(σ(x) + 2μ x)`` (seed Fig. 4).
 
-        Solves ``x = G(x) = Δεp_return(σ^pr + σ^r(εp_old + x) + 2μ x)``. Fixed-point sweeps
-        (one residual-stress application each) accelerated by Anderson mixing; without
-        acceleration, plain sweeps while they at least halve the residual. When the sweeps stall
-        (no halving of the best residual in 25 sweeps) it switches to semismooth Newton: the
-        Jacobian ``I − T (A + 2μ)`` (``T`` the algorithmic tangent of the return, ``A`` the
-        residual-stress operator) is inverted matrix-free by GMRES, with a backtracking line
-        search on the max-norm residual. Returns ``(Δεp, Δp, residual-stress applications)``.
+        ``sigma(x) -> (stress, applications)`` is the elastic stress for the increment ``x``
+        (pressure stress plus residual stress of ``εp_old + x``); ``converged(res)`` decides on
+        the relative residual ``max|G(x) − x| / max(|G(x)|, |x|)``. Fixed-point sweeps
+        accelerated by Anderson mixing; without acceleration, plain sweeps while they at least
+        halve the residual. When the sweeps stall (no halving of the best residual in 25 sweeps)
+        it switches to semismooth Newton: the Jacobian ``I − T (A + 2μ)`` (``T`` the algorithmic
+        tangent of the return, ``A`` the residual-stress operator; the pressure's dependence on
+        ``x`` is left out) is inverted matrix-free by GMRES, with a backtracking line search on
+        the residual. Returns ``(Δεp, Δp, residual-stress applications)``.
         """
         opts = self.case.solver
         depth, mu, eqps = self.coords.x3, self.mu, self.eqps
@@ -331,8 +391,9 @@ class Simulation:
 
         def evaluate(x):
             nonlocal applications
-            applications += 1
-            trial = sig_pr + self.eigen.residual_stress(self.plastic_strain + x) + 2.0 * mu * x
+            stress, apps = sigma(x)
+            applications += apps
+            trial = stress + 2.0 * mu * x
             ret = radial_return(trial, eqps, self.law, mu, depth=depth)
             gx = ret.plastic_strain_increment
             res = float(np.abs(gx - x).max() / max(np.abs(gx).max(), np.abs(x).max(), 1e-300))
@@ -350,7 +411,7 @@ class Simulation:
         newton, res_prev, best, stalled = False, np.inf, np.inf, 0
         mixer = AndersonMixer(opts.anderson_depth) if opts.acceleration == "anderson" else None
         for iteration in range(1, opts.plasticity_max_iterations + 1):
-            if res < tol or (not ret.plastic.any() and not x.any()):
+            if converged(res) or (not ret.plastic.any() and not x.any()):
                 return ret.plastic_strain_increment, ret.eqps_increment, applications
             if mixer is None:
                 newton = newton or res > 0.5 * res_prev
@@ -364,7 +425,7 @@ class Simulation:
                 gx = ret.plastic_strain_increment
                 x = gx if mixer is None else mixer.step(x.ravel(), gx.ravel()).reshape(shape)
                 trial, ret, res = evaluate(x)
-                log.debug("step %d sweep %d: residual %.3e", step, iteration, res)
+                log.debug("step %d %s sweep %d: residual %.3e", step, what, iteration, res)
                 continue
             tangent = ReturnTangent(trial, ret, eqps, self.law, mu, depth)
             f = (ret.plastic_strain_increment - x).ravel()
@@ -377,10 +438,10 @@ class Simulation:
                 if res_t < res or step_length < 0.05:
                     break
                 step_length *= 0.5
-            log.debug("step %d newton %d: residual %.3e -> %.3e (step length %.3g, %d plastic)",
-                      step, iteration, res, res_t, step_length, int(ret_t.plastic.sum()))
+            log.debug("step %d %s newton %d: residual %.3e -> %.3e (step length %.3g, %d plastic)",
+                      step, what, iteration, res, res_t, step_length, int(ret_t.plastic.sum()))
             x, trial, ret, res = x_try, trial_t, ret_t, res_t
-        raise ConvergenceError("plasticity", step=step, residual=res, tolerance=tol,
+        raise ConvergenceError(what, step=step, residual=res, tolerance=opts.plasticity_tolerance,
                                iterations=opts.plasticity_max_iterations)
 
     # ------------------------------------------------------------------ driver
@@ -394,31 +455,41 @@ class Simulation:
         """
         every = self.case.output.volume_every
         for step, plan in enumerate(self.steps):
-            if plan.load <= 0.0:
-                self._pressure = None
-            inc = self._increment(step, plan)
-            if inc.update is not None:
-                deps, dp = inc.update
-                self.plastic_strain += deps
-                self.eqps += dp
-                # residual fields of the converged plastic strain
-                self.residual_stress, self.residual_displacement = self.eigen.residual_stress(
-                    self.plastic_strain, with_displacement=True)
-                self._check_box(step)
-            volume = {}
-            if step % every == every - 1 or step == self.total_steps - 1:
-                volume = self._volume_fields(inc.contact, inc.window)
-            yield self._state(step, plan, inc, volume)
+            with single_threaded_blas():  # lifted while the caller holds the state
+                state = self._advance(step, plan, every)
+            yield state
+
+    def _advance(self, step: int, plan: StepPlan, every: int) -> State:
+        """Solve increment ``step`` of the load path and return its state."""
+        if plan.load <= 0.0:
+            self._pressure = None
+        inc = self._increment(step, plan)
+        if inc.update is not None and inc.update[0].any():
+            deps, dp = inc.update
+            self.plastic_strain += deps
+            self.eqps += dp
+            # residual fields of the converged plastic strain
+            self.residual_stress, self.residual_displacement = self.eigen.residual_stress(
+                self.plastic_strain, with_displacement=True)
+            self._check_box(step)
+        volume = {}
+        if step % every == every - 1 or step == self.total_steps - 1:
+            volume = self._volume_fields(inc.contact, inc.window)
+        return self._state(step, plan, inc, volume)
 
     def _check_box(self, step: int) -> None:
-        """Warn when plastic strain reaches the bottom or the sides of the cuboid box."""
+        """Stop when plastic strain reaches the bottom of the box; warn when it reaches a side.
+
+        Raises
+        ------
+        BoxTooShallowError
+            With a depth ``_GROWTH`` times larger (same layer thickness): the runner grows the
+            box and runs the case again. The sides cannot grow (they are the contact window).
+        """
         plastic = self.eqps > 0.0
         if plastic[..., -1].any():
-            warnings.warn(
-                f"step {step}: plastic strain reached the bottom of the cuboid box "
-                f"(depth {self.coords.x3[-1] + self.dz / 2:.3e} m); set a deeper grid.depth",
-                RuntimeWarning, stacklevel=2,
-            )
+            new_nz = max(self.nz + 2, math.ceil(_GROWTH * self.nz))
+            raise BoxTooShallowError(step, self.nz * self.dz, self.nz, new_nz * self.dz, new_nz)
         if plastic[[0, -1]].any() or plastic[:, [0, -1]].any():
             warnings.warn(
                 f"step {step}: plastic strain reached the side of the grid; "

@@ -126,6 +126,10 @@ class RunWriter:
     resume : bool
         Keep the completed steps of an interrupted run of the same case and append after them.
         Otherwise (and for parts of another case) any previous output is removed.
+    requested_case_id : str, optional
+        When the case run is an automatic adaptation of the one asked for (a deeper cuboid box,
+        see :class:`~sacflow.errors.BoxTooShallowError`): the id of the case asked for, stored
+        as the ``requested_case_id`` attribute; :func:`is_complete` accepts either id.
 
     Examples
     --------
@@ -142,6 +146,7 @@ class RunWriter:
         fields: Iterable[str] | None = None,
         compression: int = 1,
         resume: bool = False,
+        requested_case_id: str | None = None,
     ) -> None:
         self.path = Path(path)
         self.parts = parts_dir(self.path)
@@ -151,6 +156,8 @@ class RunWriter:
         self._closed = False
         kept = _prepare(self.path, case.case_id, resume)
         self.attrs = _read_attrs(kept[0]) if kept else _global_attrs(case)
+        if requested_case_id is not None and requested_case_id != case.case_id:
+            self.attrs["requested_case_id"] = requested_case_id
         self.next_step = len(kept)  # number of steps stored so far
         self.parts.mkdir(parents=True, exist_ok=True)
 
@@ -416,12 +423,17 @@ def _load(path: Path) -> xr.Dataset:
 
 
 def is_complete(path: str | Path, case_id: str) -> bool:
-    """True when ``path`` is a finished (consolidated) run of the case ``case_id``."""
+    """True when ``path`` is a finished (consolidated) run of the case ``case_id``.
+
+    A run whose box was grown automatically (``requested_case_id`` attribute) also counts as a
+    finished run of the case asked for.
+    """
     path = Path(path)
     if not path.exists():
         return False
     attrs = _read_attrs(path)
-    return bool(attrs.get("complete")) and attrs.get("case_id") == case_id
+    return bool(attrs.get("complete")) and case_id in (
+        attrs.get("case_id"), attrs.get("requested_case_id"))
 
 
 def completed_steps(path: str | Path, case_id: str | None = None) -> int:

@@ -1,7 +1,8 @@
 """Campaigns: expansion, names and ids, error messages, dask runs, resume, failures, SIGKILL.
 
-The module-level simulation factories below are imported by the dask workers (spawned processes
-inherit ``sys.path``, so ``test_campaign`` is importable there), hence they live at top level.
+The module-level simulation factories below are imported by the dask workers (forked or spawned,
+they get this process's ``sys.path``, so ``test_campaign`` is importable there), hence they live
+at top level.
 """
 
 from __future__ import annotations
@@ -9,6 +10,7 @@ from __future__ import annotations
 import functools
 import hashlib
 import json
+import multiprocessing
 import os
 import re
 import shutil
@@ -397,6 +399,51 @@ def test_failed_case_is_recorded_others_finish_exit_code_1(folder, capsys, monke
     assert sorted(s for s, _ in by_status.values()) == ["done", "done", "skipped", "skipped"]
 
 
+def worker_threads() -> dict:
+    """Runs in a worker: its thread settings and whether the solver was imported before."""
+    from threadpoolctl import threadpool_info
+
+    names = [*campaign_module.WORKER_ENV, "MALLOC_TRIM_THRESHOLD_"]
+    return {
+        "env": {name: os.environ.get(name) for name in names},
+        "pools": {(p["user_api"], p["num_threads"]) for p in threadpool_info()},
+        "solver": "sacflow.solver" in sys.modules,
+    }
+
+
+def test_local_cluster_workers_are_single_threaded_and_preloaded():
+    """One thread per library in each worker; the fork server imported the solver once."""
+    before = {
+        name: os.environ.get(name)
+        for name in (campaign_module.FFT_THREADS_ENV, "MALLOC_TRIM_THRESHOLD_")
+    }
+    with campaign_module._client(None, 2, 2) as client:
+        info = client.run(worker_threads)
+    assert len(info) == 2
+    for worker in info.values():
+        assert worker["env"] == {**campaign_module.WORKER_ENV, "MALLOC_TRIM_THRESHOLD_": None}
+        assert {n for api, n in worker["pools"] if api in ("blas", "openmp")} == {1}, worker
+        if "forkserver" in multiprocessing.get_all_start_methods():
+            assert worker["solver"], "forked from a server that imported the solver"
+    after = {name: os.environ.get(name) for name in before}
+    assert after == before, "this process's environment is left as it was"
+
+
+def test_longest_cases_are_submitted_first(folder):
+    """One worker runs the cases in submission order: the finer grid (more cells) first."""
+    base = (folder / "base.toml").read_text()
+    (folder / "fake-base.toml").write_text(base)
+    sweep = '[[sweep]]\nmode = "zip"\nparameters = { "grid.nx" = [16, 24, 32] }'
+    path = write(folder, campaign_text(sweep, base='base = "fake-base.toml"', name="order"))
+    out = folder / "out"
+    summary = run_campaign(
+        load_campaign(path), out, workers=1, progress=False, simulation_factory=fake_simulation
+    )
+    assert summary.counts()["done"] == 3, summary.table()
+    finished = sorted(out.glob("*.nc"), key=lambda p: p.stat().st_mtime_ns)
+    assert [p.stem for p in finished] == ["order-nx32", "order-nx24", "order-nx16"]
+
+
 def test_unexpected_errors_keep_their_traceback(folder):
     out = folder / "out"
     summary = run_campaign(
@@ -465,8 +512,9 @@ def test_sigkill_then_rerun_completes_without_recomputing(folder):
     out = folder / "out"
     proc = _campaign_process(path, out)
     deadline = time.monotonic() + 90
-    while time.monotonic() < deadline:
-        done = [n for n, s in statuses(out, "fake").items() if s == "done"] if out.exists() else []
+    while time.monotonic() < deadline:  # the manifest appears (atomically) after the folder
+        written = (out / "fake.manifest.json").exists()
+        done = [n for n, s in statuses(out, "fake").items() if s == "done"] if written else []
         if done or proc.poll() is not None:
             break
         time.sleep(0.05)

@@ -634,3 +634,17 @@ def test_hertz_check_on_a_real_elastic_run(tmp_path):
     assert abs(float(result.contact_radius_error)) < 0.03, "area counted in whole cells"
     assert abs(float(result.profile_error)) < 0.05, "edge cells of the contact"
     assert_written(result, tmp_path, "real-hertz")
+
+
+def test_refined_peak_is_exact_for_a_separable_parabola():
+    from sacflow.compare.fields import refined_peak
+
+    x = np.arange(9) * 0.5
+    y = np.arange(7) * 0.3
+    z = np.arange(11) * 0.2
+    X, Y, Z = np.meshgrid(x, y, z, indexing="ij")
+    field = 3.0 - (X - 2.13) ** 2 - 2.0 * (Y - 0.97) ** 2 - 0.5 * (Z - 1.31) ** 2
+    value, where = refined_peak(field, (x, y, z))
+    assert abs(value - 3.0) < 1e-12
+    np.testing.assert_allclose(where, [2.13, 0.97, 1.31], atol=1e-12)
+    assert value > field.max(), "the refined peak lies between the cell centres"

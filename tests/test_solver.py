@@ -139,3 +139,51 @@ def test_plasticity_non_convergence_raises_named_error():
     with pytest.raises(ConvergenceError, match="plasticity.*step 0") as info:
         run_all(case)
     assert info.value.residual > case.solver.plasticity_tolerance
+
+
+def test_coupled_and_nested_schemes_agree():
+    """The one-loop scheme and the seed's nested loops converge to the same increment."""
+    sigma_y = 4.0e9
+    path = [{"kind": "load", "to": load_for_ratio(2.0, sigma_y), "increments": 2},
+            {"kind": "unload", "to": 0.0, "increments": 1}]
+    law = {"law": "linear", "yield_stress": sigma_y, "modulus": 0.05 * E}
+    runs = {}
+    for scheme in ("coupled", "nested"):
+        sim, states = run_all(sphere_case(law, path, nx=24, nz=10, scheme=scheme))
+        runs[scheme] = (sim, states)
+    (a, sa), (b, sb) = runs["coupled"], runs["nested"]
+    scale = np.abs(b.plastic_strain).max()
+    assert scale > 0
+    # both stop at a relative plastic residual of 1e-6 (and coupling 1e-6): agree to ~1e-5
+    assert_allclose(a.plastic_strain, b.plastic_strain, rtol=0, atol=1e-5 * scale)
+    assert_allclose(a.residual_displacement, b.residual_displacement, rtol=0,
+                    atol=1e-5 * np.abs(b.residual_displacement).max())
+    for x, y in zip(sa, sb, strict=True):
+        assert_allclose(x.approach, y.approach, rtol=1e-6)
+    # the coupled scheme needs fewer residual-stress applications on the loading steps
+    assert sum(s.plasticity_iterations for s in sa) < sum(s.plasticity_iterations for s in sb)
+
+
+def test_too_shallow_box_grows_and_says_so(tmp_path):
+    """Plastic strain at the bottom layer: the run is repeated with a deeper box, with a note."""
+    from sacflow.errors import BoxTooShallowError
+    from sacflow.runner import run_case
+    from sacflow.store import is_complete, open_run
+
+    sigma_y = 4.0e9
+    load = load_for_ratio(2.2, sigma_y)
+    a = hertz_contact(load, R, composite_modulus(E, NU)).a
+    law = {"law": "linear", "yield_stress": sigma_y, "modulus": 0.05 * E}
+    case = sphere_case(law, [{"kind": "load", "to": load, "increments": 1}], nx=24, nz=4,
+                       depth=0.4 * a)
+    with pytest.raises(BoxTooShallowError, match="grid.depth"):
+        run_all(case)  # the simulation itself stops and names the setting
+    with pytest.warns(RuntimeWarning, match="running again with depth"):
+        summary = run_case(case, tmp_path, progress=False)
+    ds = open_run(summary.path)
+    assert float(ds["x3"].max()) > 0.4 * a, "the stored box is deeper than the one asked for"
+    assert ds.attrs["requested_case_id"] == case.case_id
+    eqps = ds["equivalent_plastic_strain"].isel(step=-1).values
+    assert eqps.max() > 0 and not (eqps[..., -1] > 0).any(), "the grown box holds the zone"
+    assert is_complete(summary.path, case.case_id)
+    assert run_case(case, tmp_path, progress=False).skipped

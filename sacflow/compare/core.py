@@ -114,6 +114,10 @@ RESULTS: dict[str, Meta] = {
     "max_plastic_strain_x1": Meta("m", "x1 of the maximum equivalent plastic strain"),
     "max_plastic_strain_x2": Meta("m", "x2 of the maximum equivalent plastic strain"),
     "max_plastic_strain_depth": Meta("m", "depth x3 of the maximum equivalent plastic strain"),
+    "max_plastic_strain_refined": Meta(
+        "1", "maximum equivalent plastic strain, refined below the cell size (refined_peak)"
+    ),
+    "max_plastic_strain_refined_depth": Meta("m", "depth of the refined maximum"),
     "print_depth": Meta("m", "residual print depth: max residual displacement (last step)"),
     "residual_stress_11_first_layer": Meta("Pa", "residual σ11 on the axis, first layer"),
     "residual_stress_33_first_layer": Meta("Pa", "residual σ33 on the axis, first layer"),
