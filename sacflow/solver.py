@@ -72,7 +72,8 @@ class StepPlan:
 @dataclass(frozen=True)
 class Increment:
     """Converged increment: window slices, its initial gap, the contact solution, the plastic
-    update ``(Δεp, Δp)`` (None when elastic) and iteration counts."""
+    update ``(Δεp, Δp)`` (None when elastic), iteration counts and, when the solver already has
+    them, the residual stress and surface displacement of ``εp_old + Δεp``."""
 
     window: tuple[slice, slice]
     geometry: np.ndarray
@@ -80,6 +81,7 @@ class Increment:
     update: tuple[np.ndarray, np.ndarray] | None
     contact_iterations: int
     plasticity_iterations: int
+    residual_fields: tuple[np.ndarray, np.ndarray] | None = None
 
 
 def plan_steps(load_path) -> list[StepPlan]:
@@ -285,11 +287,12 @@ class Simulation:
         if not self.plastic:
             result = solve(self.residual_displacement)
             return Increment(sl, geometry, result, None, contact_iterations, 0)
+        fields = None
         if opts.scheme == "coupled":
-            result, update, applications = self._coupled(solve, sl, step)
+            result, update, applications, fields = self._coupled(solve, sl, step)
         else:
             result, update, applications = self._nested(solve, sl, step)
-        return Increment(sl, geometry, result, update, contact_iterations, applications)
+        return Increment(sl, geometry, result, update, contact_iterations, applications, fields)
 
     def _coupled(self, solve, sl, step: int):
         """Plastic strain increment as one fixed point, the contact solved at every evaluation.
@@ -299,8 +302,11 @@ class Simulation:
         displacement share one forward transform, the contact is warm-started. Converged when
         the relative plastic residual is below ``plasticity_tolerance`` and the residual
         displacement moved by less than ``coupling_tolerance`` (relative to its change over the
-        increment) between the last two evaluations. Returns ``(contact, (Δεp, Δp),
-        residual-stress applications)``.
+        increment) between the last two evaluations. The increment returned is that last
+        iterate ``x`` (not ``G(x)``, which differs from it by less than the tolerance): the
+        residual fields of ``εp_old + x`` are then those of the last evaluation, and the step
+        needs no further application. Returns ``(contact, (Δεp, Δp), residual-stress
+        applications, (residual stress, residual displacement))``.
         """
         opts = self.case.solver
         u_old = self.residual_displacement
@@ -314,6 +320,7 @@ class Simulation:
 
         def sigma(x):
             stress, u, apps = residual_fields(x)
+            last["fields"] = (stress, u)
             result = solve(u)
             if last["u"] is not None:
                 scale = max(float(np.abs(u - u_old).max()), 1e-300)
@@ -325,8 +332,9 @@ class Simulation:
             return res < opts.plasticity_tolerance and last["du"] < opts.coupling_tolerance
 
         x = np.zeros(self.plastic_strain.shape)  # a moved copy of the last increment: worse
-        dx, dp, applications = self._fixed_point(sigma, x, step, converged, "plasticity")
-        return last["result"], (dx, dp), applications
+        dx, dp, applications = self._fixed_point(
+            sigma, x, step, converged, "plasticity", accept_iterate=True)
+        return last["result"], (dx, dp), applications, last["fields"]
 
     def _nested(self, solve, sl, step: int):
         """The seed's nested loops (Fig. 5): contact ↔ plastic fixed point for fixed pressure.
@@ -370,7 +378,9 @@ class Simulation:
                                tolerance=opts.coupling_tolerance,
                                iterations=opts.coupling_max_iterations)
 
-    def _fixed_point(self, sigma, x: np.ndarray, step: int, converged, what: str):
+    def _fixed_point(
+        self, sigma, x: np.ndarray, step: int, converged, what: str, accept_iterate: bool = False
+    ):
         """Plastic strain increment ``x = G(x) = Δεp_return(σ(x) + 2μ x)`` (seed Fig. 4).
 
         ``sigma(x) -> (stress, applications)`` is the elastic stress for the increment ``x``
@@ -381,7 +391,8 @@ class Simulation:
         it switches to semismooth Newton: the Jacobian ``I − T (A + 2μ)`` (``T`` the algorithmic
         tangent of the return, ``A`` the residual-stress operator; the pressure's dependence on
         ``x`` is left out) is inverted matrix-free by GMRES, with a backtracking line search on
-        the residual. Returns ``(Δεp, Δp, residual-stress applications)``.
+        the residual. Returns ``(Δεp, Δp, residual-stress applications)`` with ``Δεp = G(x)``,
+        or the converged iterate ``x`` itself with ``accept_iterate``.
         """
         opts = self.case.solver
         depth, mu, eqps = self.coords.x3, self.mu, self.eqps
@@ -412,7 +423,8 @@ class Simulation:
         mixer = AndersonMixer(opts.anderson_depth) if opts.acceleration == "anderson" else None
         for iteration in range(1, opts.plasticity_max_iterations + 1):
             if converged(res) or (not ret.plastic.any() and not x.any()):
-                return ret.plastic_strain_increment, ret.eqps_increment, applications
+                dx = x if accept_iterate else ret.plastic_strain_increment
+                return dx, ret.eqps_increment, applications
             if mixer is None:
                 newton = newton or res > 0.5 * res_prev
             else:  # Anderson stalls on some active-set changes: fall back to Newton
@@ -468,9 +480,12 @@ class Simulation:
             deps, dp = inc.update
             self.plastic_strain += deps
             self.eqps += dp
-            # residual fields of the converged plastic strain
-            self.residual_stress, self.residual_displacement = self.eigen.residual_stress(
-                self.plastic_strain, with_displacement=True)
+            # residual fields of the converged plastic strain (known from the last evaluation)
+            if inc.residual_fields is not None:
+                self.residual_stress, self.residual_displacement = inc.residual_fields
+            else:
+                self.residual_stress, self.residual_displacement = self.eigen.residual_stress(
+                    self.plastic_strain, with_displacement=True)
             self._check_box(step)
         volume = {}
         if step % every == every - 1 or step == self.total_steps - 1:
