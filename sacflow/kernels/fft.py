@@ -45,6 +45,11 @@ __all__ = [
 ]
 
 
+#: Time limit of one measured 3-D plan [s]: FFTW keeps the best plan found by then. Measured for
+#: a 64 × 64 × 32-cuboid eigenstrain operator (12 plans): no limit, set-up 8.0 s and 63 ms per
+#: application; 0.3 s, 6.2 s and 67 ms. 2-D plans (contact) are not limited: their better plans
+#: are what brings the 512² contact solve under 1 s.
+_PLANNING_SECONDS = 0.3
 #: Transforms with fewer points (batch included) run on one thread. Measured on a quiet 2-core
 #: machine: the rolling benchmark (6 × 21 × 130 × 48-point batches) runs in a median 18.2 s with
 #: 2^18 and 21.6 s with 2^20; a 256² contact solve (512² transforms) in 0.097 s, not 0.158 s.
@@ -193,7 +198,8 @@ class RealFFT:
     def _plan(self, a, b, axes, direction: str, destroy: bool = False):
         flags = self._flags + (("FFTW_DESTROY_INPUT",) if destroy else ())
         return pyfftw.FFTW(a, b, axes=axes, direction=direction, flags=flags,
-                           threads=self.threads)
+                           threads=self.threads,
+                           planning_timelimit=_PLANNING_SECONDS if self.ndim == 3 else None)
 
     def _block(self, extent: Sequence[int | None]) -> tuple:
         """Index of ``[..., :e_1, …]`` over the transformed axes (``None``: whole axis)."""
