@@ -4,7 +4,8 @@
 
 Cases (configs/): nanoindentation-190mN and -650mN (stage ``indentation``), rolling-smooth
 (``track``), dent-vertical with its elastic twin (``elastic-vs-plastic``, ``residual-map``) and
-dent-rolling (``vertical-vs-rolling`` against dent-vertical). Each run is written to
+dent-rolling (``vertical-vs-rolling`` against dent-vertical run on dent-rolling's grid, so that
+both profiles come from the same cuboid layer). Each run is written to
 ``OUT/<case>.nc`` (finished runs are reused), each stage to ``OUT/compare/<stem>.nc/.png``. The
 JSON holds, per case, the wall time and iteration counts, and per stage its summary numbers
 (0-d variables, SI units). ``--set`` overrides apply to every case (e.g. a coarser grid for a
@@ -28,27 +29,34 @@ CASES = {
     "rolling-smooth": [("track", {})],
     "dent-vertical": [("residual-map", {"depth": 65e-6})],
     "dent-vertical-elastic": [],
+    "dent-vertical-rolling-grid": [],
     "dent-rolling": [],
 }
 PAIRS = [
     ("elastic-vs-plastic", "dent-vertical-elastic", "dent-vertical", {}),
-    ("vertical-vs-rolling", "dent-vertical", "dent-rolling", {"depth": 75e-6}),
+    # like for like: the vertical case on the rolling case's grid (same cuboid layers)
+    ("vertical-vs-rolling", "dent-vertical-rolling-grid", "dent-rolling", {"depth": 75e-6}),
 ]
 
 
 def build(name: str, overrides: list[str]):
-    """The shipped case ``name`` (``-elastic``: the same case with an elastic body)."""
+    """The shipped case ``name``; ``-elastic``: with an elastic body; ``-rolling-grid``: on the
+    grid of ``dent-rolling``."""
     from sacflow.config import load_case
     from sacflow.schema import Case
 
-    base = name.removesuffix("-elastic")
+    base = name.removesuffix("-elastic").removesuffix("-rolling-grid")
     case = load_case(ROOT / "configs" / f"{base}.toml", overrides)
-    if name != base:
-        data = case.model_dump()
-        data["name"] = name
+    if name == base:
+        return case
+    data = case.model_dump()
+    data["name"] = name
+    if name.endswith("-elastic"):
         data["body"]["hardening"] = {"law": "elastic"}
-        case = Case.model_validate(data)
-    return case
+    else:
+        rolling = load_case(ROOT / "configs" / "dent-rolling.toml", overrides)
+        data["grid"] = rolling.grid.model_dump()
+    return Case.model_validate(data)
 
 
 def run(name: str, out: Path, overrides: list[str]) -> dict:
