@@ -80,13 +80,12 @@ def run(name: str, out: Path, overrides: list[str]) -> dict:
 
 
 def numbers(result) -> dict:
-    out = {}
-    for key, var in result.data_vars.items():
-        if var.ndim == 0:
-            value = float(var)
-            out[key] = {"value": value if np.isfinite(value) else None,
-                        "units": var.attrs.get("units", "1")}
-    return out
+    from sacflow.compare import summary_numbers
+
+    return {
+        key: {"value": value if np.isfinite(value) else None, "units": units}
+        for key, (value, units) in summary_numbers(result).items()
+    }
 
 
 def main() -> None:

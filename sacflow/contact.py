@@ -95,7 +95,17 @@ def solve_contact(
                       step)
 
 
-def _solve(h, compliance, cell_area, load, approach, initial_pressure, tol, max_iter, step):
+def _solve(
+    h: np.ndarray,
+    compliance: Callable[[np.ndarray], np.ndarray],
+    cell_area: float,
+    load: float | None,
+    approach: float | None,
+    initial_pressure: np.ndarray | None,
+    tol: float,
+    max_iter: int,
+    step: int,
+) -> ContactResult:
     """Body of :func:`solve_contact` (same arguments, run with one BLAS thread)."""
     h = np.asarray(h, dtype=float)
     load_control = load is not None

@@ -39,6 +39,15 @@ def _relative(value: np.ndarray, reference: np.ndarray) -> np.ndarray:
         return np.where(reference != 0.0, (value - reference) / reference, np.nan)
 
 
+
+def _curves(ds: xr.Dataset):
+    """Per-step load and approach of a run, the Hertz approach at those loads, R and E*."""
+    hertz = case_of(ds).hertz()
+    radius, e_star = hertz.radius, hertz.e_star
+    load = np.asarray(ds["load"].values, dtype=float)
+    approach = np.asarray(ds["approach"].values, dtype=float)
+    return load, approach, hertz_approach(load, radius, e_star), radius, e_star
+
 def hertz_check(run: RunLike) -> xr.Dataset:
     """Compare a run with Hertz: load–approach curve and pressure profile at the maximum load.
 
@@ -67,11 +76,7 @@ def hertz_check(run: RunLike) -> xr.Dataset:
     ds = load_run(run)
     stage = "hertz-check"
     require(ds, "load", "approach", "load_x1", "load_x2", "contact_area", "pressure", stage=stage)
-    hertz = case_of(ds).hertz()
-    radius, e_star = hertz.radius, hertz.e_star
-    load = np.asarray(ds["load"].values, dtype=float)
-    approach = np.asarray(ds["approach"].values, dtype=float)
-    approach_h = hertz_approach(load, radius, e_star)
+    load, approach, approach_h, radius, e_star = _curves(ds)
 
     index = max_load_index(ds)
     at = ds.isel(step=index)
@@ -161,11 +166,7 @@ def load_approach(run: RunLike, reference: RunLike | None = None) -> xr.Dataset:
     ds = load_run(run)
     stage = "load-approach"
     require(ds, "load", "approach", stage=stage)
-    hertz = case_of(ds).hertz()
-    radius, e_star = hertz.radius, hertz.e_star
-    load = np.asarray(ds["load"].values, dtype=float)
-    approach = np.asarray(ds["approach"].values, dtype=float)
-    approach_h = hertz_approach(load, radius, e_star)
+    load, approach, approach_h, radius, e_star = _curves(ds)
     index = max_load_index(ds)
     branch = _branches(ds, index)
     unloading = (branch == "unloading") & (np.arange(load.size) > index)

@@ -10,7 +10,7 @@ import xarray as xr
 
 from sacflow.compare.plots import _scale, plot
 
-__all__ = ["summary", "write"]
+__all__ = ["summary", "summary_numbers", "write"]
 
 
 def _replace_atomically(tmp: Path, target: Path) -> None:
@@ -66,15 +66,23 @@ def _value(value: float, units: str) -> str:
     return f"{value * factor:.4g} {shown if shown != '1' else ''}".rstrip()
 
 
+def summary_numbers(result: xr.Dataset) -> dict[str, tuple[float, str]]:
+    """The summary numbers of a result: ``{name: (value, units)}`` of its 0-d variables (SI)."""
+    return {
+        str(name): (float(var), var.attrs.get("units", "1"))
+        for name, var in result.data_vars.items()
+        if var.ndim == 0
+    }
+
+
 def summary(result: xr.Dataset) -> str:
     """The summary numbers of a result (its 0-d variables) as a short text block."""
     lines = [f"{result.attrs.get('stage', 'compare')}: {result.attrs.get('case', '')}"]
-    scalars = [n for n, v in result.data_vars.items() if v.ndim == 0]
-    width = max((len(str(n)) for n in scalars), default=0)
-    for name in scalars:
-        var = result[name]
-        text = _value(float(var), var.attrs.get("units", "1"))
-        lines.append(f"  {name:<{width}}  {text:>14}  {var.attrs.get('long_name', '')}")
+    numbers = summary_numbers(result)
+    width = max((len(n) for n in numbers), default=0)
+    for name, (value, units) in numbers.items():
+        text = _value(value, units)
+        lines.append(f"  {name:<{width}}  {text:>14}  {result[name].attrs.get('long_name', '')}")
     if "case" in result.dims:  # campaign: one line per case
         params = result.attrs.get("parameters", "").split()
         shown = ("max_plastic_strain", "dent_depth", "peak_pressure", "iterations_total")

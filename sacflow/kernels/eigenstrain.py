@@ -47,7 +47,6 @@ a contraction of the same 3-D spectrum of the eigenstrain. Exact (no traction tr
 from __future__ import annotations
 
 import functools
-import os
 from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 
@@ -415,8 +414,7 @@ def eigenstrain_operator(
     shape: tuple[int, int, int], spacing: tuple[float, float, float], E: float, nu: float
 ) -> HalfSpaceEigenstrain:
     """Cached :class:`HalfSpaceEigenstrain` for (shape, spacing, E, ν)."""
-    threads = int(os.environ.get("SACFLOW_FFT_THREADS", "0")) or None
-    return HalfSpaceEigenstrain(shape, spacing, E, nu, threads=threads)
+    return HalfSpaceEigenstrain(shape, spacing, E, nu)  # threads: SACFLOW_FFT_THREADS or cores
 
 
 def _operator_for(plastic_strain: np.ndarray, spacing, E: float, nu: float):

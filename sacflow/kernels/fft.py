@@ -47,8 +47,7 @@ __all__ = [
 
 #: Time limit of one measured 3-D plan [s]: FFTW keeps the best plan found by then. Measured for
 #: a 64 × 64 × 32-cuboid eigenstrain operator (12 plans): no limit, set-up 8.0 s and 63 ms per
-#: application; 0.3 s, 6.2 s and 67 ms. 2-D plans (contact) are not limited: their better plans
-#: are what brings the 512² contact solve under 1 s.
+#: application; 0.3 s, 6.2 s and 67 ms.
 _PLANNING_SECONDS = 0.3
 #: Transforms with fewer points (batch included) run on one thread. Measured on a quiet 2-core
 #: machine: the rolling benchmark (6 × 21 × 130 × 48-point batches) runs in a median 18.2 s with
@@ -71,19 +70,25 @@ def default_threads() -> int:
 _MEASURED_POINTS = 1 << 18
 
 
-def _planner_flag(points: int) -> str:
-    """FFTW planner rigour for a transform of ``points`` points.
+def _planner(points: int, ndim: int, one_shot: bool = False) -> tuple[str, float | None]:
+    """FFTW planner rigour and planning time limit [s] for a transform of ``points`` points.
 
-    ``SACFLOW_FFTW_PLANNER=estimate|measure`` forces one; by default large transforms are
-    measured and small ones estimated. Measured on this project's 2-core machine: a 1024² real
-    transform pair runs 1.6× faster with a measured plan, which takes 0.6 s to make (FFTW keeps
-    it for the rest of the process); below ~2^18 points planning costs more than a whole run
-    of small cases gains.
+    ``SACFLOW_FFTW_PLANNER=estimate|measure`` forces the rigour; by default large transforms are
+    measured and small ones (and plans run once, ``one_shot``) estimated. Measured on this
+    project's 2-core machine: a 1024² real transform pair runs 1.6× faster with a measured plan,
+    which takes 0.6 s to make (FFTW keeps it for the rest of the process); below ~2^18 points
+    planning costs more than a whole run of small cases gains. Measured 3-D plans are limited
+    to :data:`_PLANNING_SECONDS` each; 2-D plans are not (their full search is what brings the
+    512² contact solve under 1 s).
     """
+    if one_shot:
+        return "FFTW_ESTIMATE", None
     forced = os.environ.get("SACFLOW_FFTW_PLANNER", "").lower()
     if forced in ("estimate", "measure"):
-        return f"FFTW_{forced.upper()}"
-    return "FFTW_MEASURE" if points >= _MEASURED_POINTS else "FFTW_ESTIMATE"
+        flag = f"FFTW_{forced.upper()}"
+    else:
+        flag = "FFTW_MEASURE" if points >= _MEASURED_POINTS else "FFTW_ESTIMATE"
+    return flag, (_PLANNING_SECONDS if ndim == 3 else None)
 
 
 def padded_length(n_in: int, n_out: int) -> int:
@@ -165,10 +170,12 @@ class RealFFT:
         self._fwd = self._inv = None
         self._fwd_stages: list | None = None
         self._inv_stages: list | None = None
+        self._real_written = False
+        self._real_tail: tuple | None = None
         if HAVE_PYFFTW:
             self.real = pyfftw.empty_aligned(self.shape, dtype="float64")
             self.spectrum = pyfftw.empty_aligned(spec_shape, dtype="complex128")
-            self._flags = ("FFTW_ESTIMATE",) if one_shot else (_planner_flag(self.size),)
+            self._planner, self._time_limit = _planner(self.size, ndim, one_shot)
             if self._prunable(in_extent):
                 self._fwd_stages = self._forward_stages(tuple(int(e) for e in in_extent))
             else:
@@ -196,10 +203,9 @@ class RealFFT:
         return any(e < n for e, n in zip(extent[:-1], full[:-1], strict=True))
 
     def _plan(self, a, b, axes, direction: str, destroy: bool = False):
-        flags = self._flags + (("FFTW_DESTROY_INPUT",) if destroy else ())
+        flags = (self._planner,) + (("FFTW_DESTROY_INPUT",) if destroy else ())
         return pyfftw.FFTW(a, b, axes=axes, direction=direction, flags=flags,
-                           threads=self.threads,
-                           planning_timelimit=_PLANNING_SECONDS if self.ndim == 3 else None)
+                           threads=self.threads, planning_timelimit=self._time_limit)
 
     def _block(self, extent: Sequence[int | None]) -> tuple:
         """Index of ``[..., :e_1, …]`` over the transformed axes (``None``: whole axis)."""
@@ -209,10 +215,11 @@ class RealFFT:
     def _forward_stages(self, ext: tuple[int, ...]) -> list:
         k, axes = self.ndim, self.axes
         block = self._block(ext[:-1] + (None,))
-        # The lines read by the first pass must be zero beyond the block (an inverse through
-        # the same buffers may have written there): cleared before each transform.
+        # The lines read by the first pass must be zero beyond the block: the caller keeps the
+        # padding zero, an inverse through the same buffer does not (cleared after one, below).
         tail = self._block(ext[:-1] + (None,))[:-1] + (slice(ext[-1], None),)
-        stages = [(("real", tail) if ext[-1] < self.shape[-1] else None,
+        self._real_tail = tail if ext[-1] < self.shape[-1] else None
+        stages = [(None,
                    self._plan(self.real[block], self.spectrum[block], (axes[-1],),
                               "FFTW_FORWARD"))]
         for j in range(k - 2, -1, -1):  # complex passes, from the second-to-last axis back
@@ -221,7 +228,7 @@ class RealFFT:
             lead = (slice(None),) * (len(self.shape) - k)
             zero = (lead + tuple(slice(None, e) for e in ext[:j]) + (slice(ext[j], None),)
                     + (slice(None),) * (k - j - 1))
-            stages.append((("spectrum", zero) if ext[j] < self.shape[axes[j]] else None,
+            stages.append((zero if ext[j] < self.shape[axes[j]] else None,
                            self._plan(view, view, (axes[j],), "FFTW_FORWARD")))
         return stages
 
@@ -241,17 +248,20 @@ class RealFFT:
         if self._fwd is not None:
             self._fwd.execute()
         elif self._fwd_stages is not None:
-            for zero, plan in self._fwd_stages:
+            if self._real_written and self._real_tail is not None:
+                self.real[self._real_tail] = 0.0
+            for zero, plan in self._fwd_stages:  # zero: spectrum lines beyond the block
                 if zero is not None:
-                    buffer, index = zero
-                    getattr(self, buffer)[index] = 0.0
+                    self.spectrum[zero] = 0.0
                 plan.execute()
+            self._real_written = False
         else:  # pragma: no cover
             self.spectrum[...] = scipy.fft.rfftn(self.real, axes=self.axes, workers=self.threads)
         return self.spectrum
 
     def inverse(self) -> np.ndarray:
         """Transform ``spectrum`` into ``real`` *without* the 1/N factor and return ``real``."""
+        self._real_written = True  # possibly beyond a forward's input block
         if self._inv is not None:
             self._inv.execute()
         elif self._inv_stages is not None:
