@@ -2,9 +2,11 @@
 
 import numpy as np
 import pytest
+import scipy.fft
 from numpy.testing import assert_allclose
 
-from sacflow.kernels.fft import RealFFT
+from sacflow.kernels.fft import RealFFT, RealToReal, aligned_zeros
+from sacflow.kernels.pair_products import PAIRS, pair_products
 
 
 @pytest.mark.parametrize(
@@ -38,3 +40,54 @@ def test_pruned_transforms_equal_numpy(shape, ndim, in_extent, out_extent):
 def test_extent_outside_the_grid_is_refused():
     with pytest.raises(ValueError, match="outside the grid"):
         RealFFT((8, 8), 2, in_extent=(9, 4))
+
+
+@pytest.mark.parametrize(("kind", "function", "kind_type"), [
+    ("FFTW_REDFT10", scipy.fft.dct, 2), ("FFTW_REDFT01", scipy.fft.dct, 3),
+    ("FFTW_RODFT10", scipy.fft.dst, 2), ("FFTW_RODFT01", scipy.fft.dst, 3)])
+def test_real_to_real_in_place_on_strided_lines_equals_scipy(kind, function, kind_type):
+    """In place on a strided block (the eigenstrain operator's footprint lines), as scipy."""
+    buf = aligned_zeros((3, 9, 7, 8))
+    block = buf[:, 1:, :5, :4]
+    data = np.random.default_rng(2).standard_normal(block.shape)
+    transform = RealToReal(block, block, 1, kind)
+    block[...] = data
+    outside = buf.copy()
+    transform()
+    assert_allclose(block, function(data, type=kind_type, axis=1), rtol=0, atol=1e-12)
+    outside[:, 1:, :5, :4] = block  # nothing outside the block is touched
+    assert_allclose(buf, outside, rtol=0, atol=0)
+
+
+def test_real_fft_writes_into_a_given_spectrum_view():
+    big = aligned_zeros((2, 6, 8, 5), complex)
+    fft = RealFFT((2, 3, 8, 8), 2, spectrum=big[:, 2:5])
+    x = np.random.default_rng(3).standard_normal((2, 3, 8, 8))
+    fft.real[...] = x
+    fft.forward()
+    assert_allclose(big[:, 2:5], np.fft.rfft2(x), rtol=0, atol=1e-12)
+    assert not big[:, :2].any() and not big[:, 5:].any()
+    with pytest.raises(ValueError, match="spectrum buffer"):
+        RealFFT((2, 3, 8, 8), 2, spectrum=big[:, :2])
+
+
+def test_pair_products_equal_the_dense_six_by_six_products():
+    """The compiled loop against the full 6 × 6 matrix built from the 21 stored kernels."""
+    rng = np.random.default_rng(4)
+    M, L1, L2h = 3, 4, 5
+    spec = rng.standard_normal((6, M, L1, L2h)) + 1j * rng.standard_normal((6, M, L1, L2h))
+    kernels = rng.standard_normal((M, L1, L2h, 21))
+    inv_weight = 1.0 / np.array([1, 1, 1, 2, 2, 2.0])
+    correction = rng.standard_normal((6, M, L1, L2h)) + 0j
+    p_hat = rng.standard_normal((L1, L2h)) + 1j * rng.standard_normal((L1, L2h))
+    dense = np.zeros((6, 6, M, L1, L2h), dtype=complex)
+    for k, (c, d) in enumerate(PAIRS):
+        odd = (c >= 4) != (d >= 4)
+        dense[c, d] = kernels[..., k] * (1j if odd else 1.0)  # stored: row c >= column d
+        dense[d, c] = -dense[c, d] if odd else dense[c, d]
+    expected = (np.einsum("cd...,d...->c...", dense, spec) * inv_weight[:, None, None, None]
+                + correction * p_hat)
+    out = np.zeros_like(spec)
+    pair_products(spec, kernels, inv_weight, correction, p_hat, out, 1, M)
+    assert_allclose(out[:, 1:], expected[:, 1:], rtol=1e-13, atol=1e-13)
+    assert not out[:, 0].any()  # only the planes asked for

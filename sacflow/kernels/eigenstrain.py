@@ -15,33 +15,49 @@ Method
 Residual stress (Liu & Wang, J. Appl. Mech. 72 (2005) 871, doi:10.1115/1.2047598; seed
 appendix 1, Fig. 23): the half-space field is the sum of
 
-1. the infinite-space field of the cuboids (Chiu 1977, :mod:`sacflow.kernels.cuboid`): a 3-D
-   convolution in (x1, x2, x3);
-2. the field of the mirror cuboids at ``−x3`` carrying the eigenstrain with ``ε13, ε23``
-   sign-flipped (their sum with 1 is free of shear traction on ``x3 = 0``): a convolution in
-   (x1, x2) and a *correlation* in x3. The correlation is a convolution with the input reversed
-   in x3; with x3 a complex FFT axis of length ``L3`` the reversal costs no FFT:
-   ``FFT[ε(n3 − 1 − k)](m) = e^{−2πi (n3 − 1) m / L3} · FFT[ε](−m)``;
+1. the infinite-space field of the cuboids (Chiu 1977, :mod:`sacflow.kernels.cuboid`);
+2. the field of the image cuboids at ``−x3`` carrying the eigenstrain with ``ε13, ε23``
+   sign-flipped (their sum with 1 is free of shear traction on ``x3 = 0``);
 3. the half-space response to the normal traction ``p = σ33^{(1+2)}(x1, x2, 0)`` that 1+2 leave
    on the surface (removing it makes the surface traction-free), computed with Love's rectangle
    stresses (:func:`sacflow.kernels.surface.rectangle_stress`).
 
+Depth transforms. 1 + 2 is one infinite-space convolution of the eigenstrain extended to
+``x3 < 0`` by its image: each component is even (11 22 33 12) or odd (13 23) in x3 about the
+surface, and so is each kernel ``A_cd`` (parity ``s_c s_d``). A convolution of such sequences,
+made periodic with period ``2N`` (``N ≥ 2 n3``: the extended input spans ``2 n3`` layers, the
+kernel offsets ``|o| ≤ 2 n3 − 1``, so no period overlaps another), is a product in the basis
+of cosines or sines (Martucci's symmetric convolution): cell-centred data by a DCT-II (even) or
+DST-II (odd) of length N (FFTW ``REDFT10``/``RODFT10``), the kernel, sampled at whole offsets
+``0 … N``, by a DCT-I or DST-I, the result back by a DCT-III or DST-III. Writing the DFT of an
+odd sequence as ``−i`` times its sine transform, the products are real combinations
+``R_c = Σ_d σ_cd G_cd S_d`` with ``σ_cd = −1`` for an even output and an odd input. Depth
+frequency m = 0 … N (sines: 1 … N) is plane m of the spectra. The transforms run in place on the
+footprint lines of the real buffer; FFTW's real-to-real transforms are slow on the spectral side
+(no SIMD codelets: 18 ms instead of 3 ms for a complex pass on a 64 × 64 × 32-cuboid grid),
+cheap on the ``n1 n2`` real footprint lines. Then pruned 2-D real FFTs (x1, x2) on ``N + 1``
+planes. This replaced a 3-D FFT with a separate mirror kernel (a correlation in x3): one kernel
+set instead of two, all of them real.
+
+Products. Reciprocity (Betti) makes the weighted kernels ``w_c A_cd`` (``w = 1`` for normal,
+2 for shear components) symmetric; with ``σ`` the even–odd block is antisymmetric. Their
+parities make every spectrum real (even pairs) or imaginary (even–odd pairs): 21 real arrays
+are stored, the signs and the realness checked at set-up, and one compiled pass
+(:mod:`sacflow.kernels.pair_products`) forms the six products and adds the traction
+correction ``C_c p̂``, computed by 2-D FFTs (``C_c``: Love's stress of each layer, transformed
+along depth like the output).
+
 The traction ``p`` of step 3 is taken over the box footprint (``n1 × n2`` cells): the box must
 extend laterally beyond the plastic zone by a margin (the traction decays like ``r⁻³``); the
-solver sizes it so. One application costs 6 forward and 6 inverse 3-D FFTs of the
-``L1 × L2 × L3 ≈ 2n1 × 2n2 × 2n3`` grid, 2 small 2-D FFTs and ``2 × 36 + 6`` spectral
-multiply–adds. Reciprocity (Betti) makes the weighted kernels ``w_c A_cd`` (``w = 1`` for
-normal, 2 for shear components) symmetric up to a sign in (c, d), for the mirror kernels too:
-21 of the 36 spectra of each kind are stored, the signs are checked numerically at set-up, and
-the products run slab by slab over x3-frequencies so that each stored spectrum is read from
-memory once per application. Measured on a 2-core machine, the products are then bound by
-numpy's one-operation-at-a-time arithmetic (about 60 ms for 64 × 64 × 32 cuboids), not by
-memory.
+solver sizes it so. One application: 2 × 2 depth transforms of the ``n1 n2`` footprint lines,
+6 forward and 6 inverse pruned 2-D FFTs on ``N + 1 ≈ 2 n3`` planes, two small 2-D FFTs, one
+contraction over depth for the traction (and the displacement) and the compiled products.
 
 Residual surface displacement (seed eqs. 1.23, 2.3; reciprocal theorem): ``u3(A) = Σ_cells
 Σ_d D_d(A − x_c) ε_d``, with the closed-form kernels of
 :func:`sacflow.kernels.residual_displacement.cuboid_surface_displacement`; summed over layers by
-a contraction of the same 3-D spectrum of the eigenstrain. Exact (no traction truncation).
+a contraction of the same depth spectra of the eigenstrain (the layer sum through the
+synthesis basis of the depth transform). Exact (no traction truncation).
 """
 
 from __future__ import annotations
@@ -51,9 +67,17 @@ from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
+import scipy.fft
 
 from sacflow.kernels.cuboid import cuboid_stress_component
-from sacflow.kernels.fft import RealFFT, default_threads, padded_length, wraparound_offsets
+from sacflow.kernels.fft import (
+    RealFFT,
+    RealToReal,
+    default_threads,
+    padded_length,
+    wraparound_offsets,
+)
+from sacflow.kernels.pair_products import PAIRS, depth_sums, pair_products
 from sacflow.kernels.residual_displacement import cuboid_surface_displacement
 from sacflow.kernels.surface import rectangle_stress
 
@@ -67,37 +91,94 @@ __all__ = [
 
 #: Sign of each component under the reflection x3 → −x3 (13 and 23 flip).
 MIRROR_SIGN = np.array([1.0, 1.0, 1.0, 1.0, -1.0, -1.0])
-#: Spectral points per slab of the spectral products (cache-sized; see _multiply).
-_SLAB_POINTS = 32768
+#: Components even (11 22 33 12) and odd (13 23) under x3 → −x3.
+EVEN, ODD = slice(0, 4), slice(4, 6)
 #: Reciprocity weights of the components (tensor shears count twice in σ : ε).
 WEIGHT = np.array([1.0, 1.0, 1.0, 2.0, 2.0, 2.0])
-def _pair_sign(stored: np.ndarray, other: np.ndarray, which: str, c: int, d: int) -> float:
-    """Sign s with ``other = s · stored`` (weighted kernels Σ_dc and Σ_cd); checked, not assumed.
+def _check_transpose(stored: np.ndarray, other: np.ndarray, odd: bool, c: int, d: int) -> None:
+    """Check the weighted kernel of (c, d) against its stored transpose (d, c).
 
-    Raises ``RuntimeError`` if the two spectra are not equal up to a sign to 1e-9 of their
-    magnitude: reciprocity would then not hold and the 21-pair storage would be wrong.
+    Reciprocity (Betti) makes them equal, up to the sign −1 that the depth transforms give the
+    even–odd pairs (:func:`sacflow.kernels.pair_products.pair_products` relies on it). Raises
+    ``RuntimeError`` beyond 1e-9 of their magnitude: a broken kernel, not a user error.
     """
+    sign = -1.0 if odd else 1.0
     scale = max(float(np.abs(stored).max()), float(np.abs(other).max()), 1e-300)
-    for sign in (1.0, -1.0):
-        if float(np.abs(other - sign * stored).max()) <= 1e-9 * scale:
-            return sign
-    raise RuntimeError(  # pragma: no cover - a broken kernel, not a user error
-        f"{which} eigenstrain kernels ({c}, {d}) and ({d}, {c}) violate reciprocity"
-    )
+    if float(np.abs(other - sign * stored).max()) > 1e-9 * scale:  # pragma: no cover
+        raise RuntimeError(f"eigenstrain kernels ({c}, {d}) and ({d}, {c}) violate reciprocity")
+
+
+def _real_part(spectrum: np.ndarray, odd: bool, c: int, d: int) -> np.ndarray:
+    """The real part of an even pair's spectrum, the imaginary part of an odd pair's.
+
+    Their parities make the spectra of even pairs real and those of odd pairs (one odd lateral
+    axis) imaginary; the other part must vanish (to 1e-9), else ``RuntimeError``.
+    """
+    keep, drop = (spectrum.imag, spectrum.real) if odd else (spectrum.real, spectrum.imag)
+    if float(np.abs(drop).max()) > 1e-9 * max(float(np.abs(keep).max()), 1e-300):
+        raise RuntimeError(  # pragma: no cover - a broken kernel, not a user error
+            f"eigenstrain kernel ({c}, {d}) is not {'imaginary' if odd else 'real'} as its "
+            "parities require")
+    return keep
+
+
+def _check_depth_parity(below: np.ndarray, above: np.ndarray, used: np.ndarray, d: int) -> None:
+    """Check ``A_cd(x1, x2, −x3) = s_c s_d A_cd(x1, x2, x3)`` (s: :data:`MIRROR_SIGN`).
+
+    ``below`` and ``above`` are the six stress components of source ``d`` one layer below and
+    above the cuboid. The depth transforms rely on this parity; a kernel without it raises
+    ``RuntimeError``.
+    """
+    expected = np.where(used[..., None], MIRROR_SIGN * MIRROR_SIGN[d] * below, 0.0)
+    scale = max(float(np.abs(below).max()), 1e-300)
+    if float(np.abs(np.where(used[..., None], above, 0.0) - expected).max()) > 1e-9 * scale:
+        raise RuntimeError(  # pragma: no cover - a broken kernel, not a user error
+            f"the cuboid kernel of eigenstrain component {d} lacks its parity in x3"
+        )
+
+
+def _depth_spectrum(lateral: np.ndarray, odd: bool) -> np.ndarray:
+    """Depth transform of a kernel given for depth offsets 0 … N: (N + 1, …) → (N + 1, …).
+
+    Even kernels: DCT-I over the N + 1 offsets (its period-2N DFT). Odd kernels: DST-I over
+    offsets 1 … N − 1 at depth frequencies 1 … N − 1 (the DFT is −i times it; frequencies 0 and
+    N vanish).
+    """
+    if not odd:
+        return scipy.fft.dct(lateral, type=1, axis=0)
+    out = np.zeros_like(lateral)
+    out[1:-1] = scipy.fft.dst(lateral[1:-1], type=1, axis=0)
+    return out
+
+
+def _depth_basis(N: int, n3: int, odd: bool) -> np.ndarray:
+    """``cos`` (even) or ``sin`` (odd) of ``π m (j + ½) / N`` for depth frequencies m = 0 … N and
+    layers j < n3: DCT-II/DST-II analysis (times 2) and, with weights 1, 2, …, 2, 1 and 1/(2N),
+    DCT-III/DST-III synthesis (FFTW's REDFT10/RODFT10 and REDFT01/RODFT01)."""
+    angle = np.pi * np.outer(np.arange(N + 1), np.arange(n3) + 0.5) / N
+    return np.sin(angle) if odd else np.cos(angle)
+
+
+def _padded(shape: Sequence[int]) -> tuple[int, int, int]:
+    """Padded lateral lengths (L1, L2) and the depth transform length N ≥ 2 n3."""
+    n1, n2, n3 = shape
+    return padded_length(n1, n1), padded_length(n2, n2), padded_length(n3, n3 + 1)
 
 
 def kernel_bytes(shape: Sequence[int]) -> int:
     """Bytes of cached spectra and FFT buffers a :class:`HalfSpaceEigenstrain` of ``shape`` needs.
 
-    Counts the 21 + 21 complex pair spectra (infinite space and mirror), the 3 × 6 complex layer
-    spectra, the FFT buffers (6 real + 6 complex grids, twice) and working arrays.
+    Counts the 21 pair spectra (real) and the 3 × 6 surface and correction spectra (complex, over
+    N + 1 depth frequencies), the two transform buffers (real and complex), the work space of
+    the products, and the transient of the set-up (one source's kernel field and transforms).
     """
     n1, n2, n3 = shape
-    L1, L2, L3 = padded_length(n1, n1), padded_length(n2, n2), padded_length(n3, n3)
-    spec = L3 * L1 * (L2 // 2 + 1)
-    real = L3 * L1 * L2
-    return int(8 * (2 * 2 * 21 * spec + 2 * 3 * 6 * spec + 2 * 6 * (real + 2 * spec)
-                    + 4 * 6 * spec))
+    L1, L2, N = _padded(shape)
+    plane = 16 * L1 * (L2 // 2 + 1)  # one complex lateral spectrum
+    real_plane = 8 * L1 * L2
+    persistent = (10.5 + 18 + 12) * (N + 1) * plane + 12 * (N + 1) * real_plane
+    setup = (N + 1) * (7 * real_plane + 3 * plane) + 3 * 6 * n3 * plane
+    return int(persistent + setup)
 
 
 def _available_bytes() -> int:
@@ -163,121 +244,136 @@ class HalfSpaceEigenstrain:
         self.nbytes = need
         n1, n2, n3 = self.shape
         d1, d2, d3 = self.spacing
-        self.padded = (padded_length(n3, n3), padded_length(n1, n1), padded_length(n2, n2))
-        L3, L1, L2 = self.padded
-        # Wrap-around cell offsets along (x3, x1, x2), as a sparse broadcast grid.
-        o3 = wraparound_offsets(n3, n3, 0, L3)
+        L1, L2, N = _padded(self.shape)
+        self.padded = (N, L1, L2)
+        # Depth transforms in place on the footprint lines of the real buffers (the padding of
+        # each layer stays zero), then pruned lateral transforms (see RealFFT). Layout
+        # (component, depth, x1, x2); depth frequency m is plane m for the even components and
+        # the DST's frequencies 1 … N are planes 1 … N for the odd ones (module notes).
+        self._lateral_in = RealFFT((6, N + 1, L1, L2), 2, threads, in_extent=(n1, n2))
+        self._lateral_out = RealFFT((6, N + 1, L1, L2), 2, threads, out_extent=(n1, n2))
+        lines_in = self._lateral_in.real[:, :, :n1, :n2]
+        lines_out = self._lateral_out.real[:, :, :n1, :n2]
+        self._depth_forward = (
+            RealToReal(lines_in[EVEN, :N], lines_in[EVEN, :N], 1, "FFTW_REDFT10", threads),
+            RealToReal(lines_in[ODD, 1:], lines_in[ODD, 1:], 1, "FFTW_RODFT10", threads),
+        )
+        self._depth_inverse = (
+            RealToReal(lines_out[EVEN, :N], lines_out[EVEN, :N], 1, "FFTW_REDFT01", threads),
+            RealToReal(lines_out[ODD, 1:], lines_out[ODD, 1:], 1, "FFTW_RODFT01", threads),
+        )
+        lines_in[...] = 0.0  # measured planning wrote into them
+        self._fft2 = RealFFT((1, L1, L2), 2, threads)
+        # Threads of the spectral products (the compiled loop releases the GIL). Measured on a
+        # quiet 2-core machine, two threads vs one: 32 × 32 × 16 cuboids 1.3 vs 1.6 ms,
+        # 64 × 64 × 32 7.5 vs 14 ms.
+        self.threads = int(threads or default_threads())
+        self._executor: ThreadPoolExecutor | None = None
+        self._kernels = self._pair_kernels(threads)
+        self._inv_weight = 1.0 / WEIGHT
+        # Surface kernels (traction, displacement) stacked for one pass; traction correction.
+        self._surface, self._correction = self._layer_kernels(threads)
+        for arr in (self._kernels, self._surface, self._correction):
+            arr.flags.writeable = False
+
+    def _offsets(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Lateral wrap-around offsets (x1, x2) [m] and the mask of the offsets used."""
+        n1, n2, _ = self.shape
+        d1, d2, _ = self.spacing
+        _, L1, L2 = self.padded
         o1 = wraparound_offsets(n1, n1, 0, L1)
         o2 = wraparound_offsets(n2, n2, 0, L2)
-        valid = (
-            (np.abs(o3) <= n3 - 1)[:, None, None]
-            & (np.abs(o1) <= n1 - 1)[None, :, None]
-            & (np.abs(o2) <= n2 - 1)[None, None, :]
-        )
-        x3 = (o3 * d3)[:, None, None]
-        x1 = (o1 * d1)[None, :, None]
-        x2 = (o2 * d2)[None, None, :]
+        used = (np.abs(o1) <= n1 - 1)[:, None] & (np.abs(o2) <= n2 - 1)[None, :]
+        return (o1 * d1)[:, None], (o2 * d2)[None, :], used
+
+    def _pair_kernels(self, threads: int | None):
+        """The 21 stored pair spectra (weighted, normalised) and the sign of each transpose.
+
+        The infinite-space kernel ``A_cd(x1, x2, o d3)`` is evaluated for depth offsets
+        ``o = 0 … N`` (zero at ``o = N``, which no pair of cells needs), transformed laterally,
+        then along depth by a DCT-I (even pairs) or a DST-I (odd pairs), which is its full
+        period-2N DFT up to the factor −i of odd sequences; ``σ_cd = −1`` for an even output
+        and an odd input collects those factors (module notes). Its parity in x3 is checked.
+        """
+        n1, n2, n3 = self.shape
+        d1, d2, d3 = self.spacing
+        N, L1, L2 = self.padded
         h1, h2, h3 = d1 / 2, d2 / 2, d3 / 2
-        # The eigenstrain fills (n3, n1, n2) of the padded grid and the stress is read there:
-        # pruned transforms skip the zero lines (see RealFFT).
-        self._fft3 = RealFFT((6, L3, L1, L2), 3, threads, in_extent=(n3, n1, n2))
-        self._out3 = RealFFT((6, L3, L1, L2), 3, threads, out_extent=(n3, n1, n2))
-        self._fft2 = RealFFT((1, L1, L2), 2, threads)
-        # Work space of the slab-wise spectral products (see _multiply): one array per thread
-        # (numpy releases the GIL inside each product).
-        lateral = (L1, L2 // 2 + 1)
-        self.threads = int(threads or default_threads())
-        # Slab thickness: cache-sized, and at least two slabs per thread to balance them.
-        # Measured on a quiet 2-core machine, two threads vs one: 65×24×11 cuboids 6.2 vs
-        # 10.2 ms, 64×64×32 34 vs 58 ms (on a machine busy with other work they gain nothing).
-        workers = self.threads
-        self._chunk = max(1, min(_SLAB_POINTS // (lateral[0] * lateral[1]),
-                                 -(-(L3 - 1) // (2 * workers))))
-        self._tmp_c = [np.empty((self._chunk, *lateral), dtype=complex)
-                       for _ in range(workers)]
-        self._executor: ThreadPoolExecutor | None = None
-        norm3 = 1.0 / (L1 * L2 * L3)
-        spec_shape = self._fft3.spectrum_shape[1:]
-        # Reciprocity: with weights w = (1, 1, 1, 2, 2, 2) (tensor shears), Σ_cd = w_c A_cd is
-        # symmetric up to a sign, Σ_dc = ±Σ_cd, for the infinite-space and the mirror kernels
-        # alike (Betti's theorem for two cuboids of eigenstrain; checked by _pair_sign). Only one
-        # orientation of each of the 21 pairs is stored; each is read once per application and
-        # used twice.
-        self._pairs = [(c, d) for c in range(6) for d in range(c, 6)]
-        slot = {pair: k for k, pair in enumerate(self._pairs)}
-        self._inf = np.empty((21, *spec_shape), dtype=complex)
-        self._mir = np.empty((21, *spec_shape), dtype=complex)
-        self._inf_sign = np.ones(21)
-        self._mir_sign = np.ones(21)
-        scratch = RealFFT((1, L3, L1, L2), 3, threads)
-        # Mirror: field depth (i+½)d3, source at −(j+½)d3, input reversed (j = n3−1−j'):
-        # offset (i − j' + n3) d3 for i − j' = o3.
-        x3m = ((o3 + n3) * d3)[:, None, None]
-        seen: set[int] = set()
+        x1, x2, used = self._offsets()
+        depth = (np.arange(N + 1) * d3)[:, None, None]
+        used = used[None] & (np.arange(N + 1) < N)[:, None, None]
+        norm = 1.0 / (2 * N * L1 * L2)
+        slot = {pair: k for k, pair in enumerate(PAIRS)}
+        # Point-major storage (one contiguous run of 21 per spectral point): see pair_products.
+        kernels = np.empty((N + 1, L1, L2 // 2 + 1, 21))
+        stored: dict[int, np.ndarray] = {}
+        scratch = RealFFT((N + 1, L1, L2), 2, threads, one_shot=True)
         for d in range(6):
-            inf = cuboid_stress_component(x1, x2, x3, h1, h2, h3, self.nu, self.mu, d)
-            mir = cuboid_stress_component(x1, x2, x3m, h1, h2, h3, self.nu, self.mu, d)
+            field = cuboid_stress_component(x1[None], x2[None], depth, h1, h2, h3, self.nu,
+                                            self.mu, d)
+            _check_depth_parity(field[1], cuboid_stress_component(
+                x1, x2, -d3, h1, h2, h3, self.nu, self.mu, d), used[1], d)
             for c in range(6):
-                k = slot[min(c, d), max(c, d)]
-                first = k not in seen
-                if first:  # the orientation stored: row c, column d (the other is ± it)
-                    seen.add(k)
-                    self._pairs[k] = (c, d)
-                scratch.real[0] = np.where(valid, WEIGHT[c] * inf[..., c], 0.0)
-                spec = scratch.forward()[0] * norm3
-                if first:
-                    self._inf[k] = spec
-                else:
-                    self._inf_sign[k] = _pair_sign(self._inf[k], spec, "infinite-space", c, d)
-                scratch.real[0] = np.where(valid, WEIGHT[c] * MIRROR_SIGN[d] * mir[..., c], 0.0)
-                spec = scratch.forward()[0] * norm3
-                if first:
-                    self._mir[k] = spec
-                else:
-                    self._mir_sign[k] = _pair_sign(self._mir[k], spec, "mirror", c, d)
-            del inf, mir
-        # Fold the reversal's phase into the mirror spectra (see the module notes).
-        m = np.arange(L3)
-        self._mir *= np.exp(-2j * np.pi * (n3 - 1) * m / L3)[:, None, None]
-        self._inv_weight = 1.0 / WEIGHT
-        # Layer kernels on the footprint: surface traction of 1+2, residual displacement.
-        z = (np.arange(n3) + 0.5) * d3
-        o1s, o2s = (o1 * d1)[:, None], (o2 * d2)[None, :]
-        lateral_valid = (np.abs(o1) <= n1 - 1)[:, None] & (np.abs(o2) <= n2 - 1)[None, :]
-        self._traction = np.zeros((6, *spec_shape), dtype=complex)
-        self._displacement = np.zeros((6, *spec_shape), dtype=complex)
-        self._correction = np.zeros((6, *spec_shape), dtype=complex)
-        phase_plus = np.exp(2j * np.pi * np.outer(np.arange(n3), m) / L3)  # (layer j, m)
-        norm2 = 1.0 / (L1 * L2)
-        for j, zj in enumerate(z):
-            # σ33 on the surface from the cuboid at depth zj and its mirror (13, 23 flipped).
-            # The surface is the top face of the first layer, where the closed form is one-sided;
-            # σ33 is continuous across a face, so take its limit at x3 = −η (η = 1e-10 d3).
-            eta = 1e-10 * d3
-            t_layer = np.stack(
-                [
-                    self._sigma33(o1s, o2s, -zj - eta, d)
-                    + MIRROR_SIGN[d] * self._sigma33(o1s, o2s, zj - eta, d)
-                    for d in range(6)
-                ]
-            )
-            disp = np.moveaxis(
-                cuboid_surface_displacement(o1s, o2s, zj, h1, h2, h3, self.nu), -1, 0
-            )
-            stress = np.moveaxis(rectangle_stress(o1s, o2s, zj, h1, h2, self.nu), -1, 0)
-            phase = phase_plus[j][:, None, None]
-            for d in range(6):
-                self._traction[d] += (
-                    self._spectrum2(t_layer[d] * lateral_valid) * phase * (norm2 / L3)
-                )
-                self._displacement[d] += (
-                    self._spectrum2(disp[d] * lateral_valid) * phase * (norm2 / L3)
-                )
-                self._correction[d] += (
-                    self._spectrum2(stress[d] * lateral_valid) * np.conj(phase) * norm3
-                )
-        for arr in (self._inf, self._mir, self._traction, self._displacement, self._correction):
-            arr.flags.writeable = False
+                odd = MIRROR_SIGN[c] * MIRROR_SIGN[d] < 0
+                sigma = -1.0 if MIRROR_SIGN[c] > 0 > MIRROR_SIGN[d] else 1.0
+                scratch.real[...] = np.where(used, WEIGHT[c] * field[..., c], 0.0)
+                spec = _depth_spectrum(scratch.forward(), odd) * (sigma * norm)
+                k = slot.get((c, d))
+                if k is not None:  # stored: row c ≥ column d, the imaginary ones divided by i
+                    kernels[..., k] = _real_part(spec, odd, c, d)
+                    stored[k] = spec
+                else:  # the transpose: ±(stored), as pair_products assumes; checked
+                    k = slot[d, c]
+                    _check_transpose(stored.pop(k) if k in stored else None, spec, odd, c, d)
+            del field
+        return kernels
+
+    def _layer_kernels(self, threads: int | None) -> tuple[np.ndarray, np.ndarray]:
+        """Depth-frequency spectra of the surface traction of 1+2 and the surface displacement,
+        stacked (2, 6, N + 1, L1, L2h), and of the traction correction (6, N + 1, L1, L2h).
+
+        Traction and displacement: ``Σ_d Σ_m S_d(m) K_d(m)`` over the eigenstrain's depth
+        spectra ``S`` equals the layer sum ``Σ_d Σ_j T_d(j) ε̂_d(j)`` with ``ε̂_d(j)`` the inverse
+        depth transform of ``S_d`` (the basis of :func:`_depth_basis`). Correction: the stress
+        of a unit surface traction at each layer, transformed along depth like the output.
+        All normalised for the unnormalised inverse transforms of an application.
+        """
+        n1, n2, n3 = self.shape
+        d1, d2, d3 = self.spacing
+        N, L1, L2 = self.padded
+        h1, h2, h3 = d1 / 2, d2 / 2, d3 / 2
+        o1, o2, used = self._offsets()
+        layer = np.empty((3, 6, n3, L1, L2 // 2 + 1), dtype=complex)
+        scratch = RealFFT((6, L1, L2), 2, threads, one_shot=True)
+
+        def spectra(fields: np.ndarray) -> np.ndarray:
+            scratch.real[...] = fields * used
+            return scratch.forward()
+
+        # The surface is the top face of the first layer, where the closed form is one-sided;
+        # σ33 is continuous across a face, so take its limit at x3 = −η (η = 1e-10 d3).
+        eta = 1e-10 * d3
+        for j, zj in enumerate((np.arange(n3) + 0.5) * d3):
+            # σ33 on the surface from the cuboid at depth zj and its image (13, 23 flipped).
+            layer[0, :, j] = spectra(np.stack([
+                self._sigma33(o1, o2, -zj - eta, d)
+                + MIRROR_SIGN[d] * self._sigma33(o1, o2, zj - eta, d) for d in range(6)]))
+            layer[1, :, j] = spectra(np.moveaxis(
+                cuboid_surface_displacement(o1, o2, zj, h1, h2, h3, self.nu), -1, 0))
+            layer[2, :, j] = spectra(np.moveaxis(
+                rectangle_stress(o1, o2, zj, h1, h2, self.nu), -1, 0))
+        out = np.empty((3, 6, N + 1, L1, L2 // 2 + 1), dtype=complex)
+        for c in range(6):
+            basis = _depth_basis(N, n3, odd=MIRROR_SIGN[c] < 0)
+            weight = np.full(N + 1, 2.0)
+            weight[[0, N]] = 1.0
+            # Inverse (for the layer sums, 1/(2N) there) and forward (type II: 2 × basis).
+            synthesis = basis * (weight[:, None] / (2 * N * L1 * L2))
+            analysis = basis * (2.0 / (2 * N * L1 * L2))
+            out[0, c] = np.einsum("mj,jab->mab", synthesis, layer[0, c])
+            out[1, c] = np.einsum("mj,jab->mab", synthesis, layer[1, c])
+            out[2, c] = np.einsum("mj,jab->mab", analysis, layer[2, c])
+        return out[:2], out[2]
 
     def _sigma33(self, x1: np.ndarray, x2: np.ndarray, x3: float, source: int) -> np.ndarray:
         """σ33 of the infinite-space cuboid of unit eigenstrain ``source`` at (x1, x2, x3)."""
@@ -293,98 +389,66 @@ class HalfSpaceEigenstrain:
 
     # ------------------------------------------------------------------ application
     def _forward(self, eps: np.ndarray) -> np.ndarray:
-        """3-D spectrum of the zero-padded eigenstrain, layout (6, L3, L1, L2h)."""
+        """Depth-frequency lateral spectra of the eigenstrain, layout (6, N + 1, L1, L2h)."""
         n1, n2, n3 = self.shape
         if eps.shape != (n1, n2, n3, 6):
             raise ValueError(f"eigenstrain must have shape {(n1, n2, n3, 6)}, got {eps.shape}")
-        buf = self._fft3.real
-        buf[:, :n3, :n1, :n2] = np.moveaxis(eps, (3, 2), (0, 1))
-        return self._fft3.forward()
+        lines = self._lateral_in.real[:, :, :n1, :n2]
+        layers = np.moveaxis(eps, (3, 2), (0, 1))
+        lines[EVEN, :n3] = layers[EVEN]
+        lines[EVEN, n3:] = 0.0
+        lines[ODD, 1:n3 + 1] = layers[ODD]
+        lines[ODD, n3 + 1:] = 0.0
+        for transform in self._depth_forward:
+            transform()
+        return self._lateral_in.forward()
 
-    def _layer_sum(self, spectrum: np.ndarray, kernels: np.ndarray) -> np.ndarray:
-        """Σ_d Σ_m spectrum_d(m) kernels_d(m): a 2-D lateral spectrum (L1, L2h)."""
-        acc = np.zeros(spectrum.shape[2:], dtype=complex)
-        for d in range(6):
-            acc += np.einsum("mij,mij->ij", spectrum[d], kernels[d])
-        return acc
+    def _surface_fields(self, spectrum: np.ndarray, kernels: np.ndarray) -> np.ndarray:
+        """Surface fields on the box footprint, ``Σ_d Σ_m spectrum_d(m) kernels_qd(m)``.
 
-    def _lateral_field(self, spectrum2: np.ndarray) -> np.ndarray:
-        """Real field on the box footprint from an unnormalised 2-D spectrum (copy)."""
+        ``kernels`` stacks Q sets (traction, displacement); returns (Q, n1, n2).
+        """
         n1, n2, _ = self.shape
-        self._fft2.spectrum[0] = spectrum2
-        return self._fft2.inverse()[0, :n1, :n2].copy()
+        sums = np.empty((kernels.shape[0], *spectrum.shape[2:]), dtype=complex)
+        depth_sums(spectrum, kernels, sums)
+        fields = np.empty((kernels.shape[0], n1, n2))
+        for q, spectrum2 in enumerate(sums):
+            self._fft2.spectrum[0] = spectrum2
+            fields[q] = self._fft2.inverse()[0, :n1, :n2]
+        return fields
 
-    def residual_displacement(self, eps: np.ndarray, spectrum: np.ndarray | None = None):
+    def residual_displacement(self, eps: np.ndarray) -> np.ndarray:
         """Residual normal surface displacement [m] on the box footprint, shape (n1, n2).
 
         Parameters
         ----------
         eps : ndarray (n1, n2, n3, 6)
             Eigenstrain (plastic strain) per cuboid.
-        spectrum : ndarray, optional
-            Its 3-D spectrum if already computed (internal reuse).
         """
-        spec = self._forward(eps) if spectrum is None else spectrum
-        return self._lateral_field(self._layer_sum(spec, self._displacement))
+        return self._surface_fields(self._forward(eps), self._surface[1:])[0]
 
     def _multiply(self, spec: np.ndarray, p_hat: np.ndarray, out: np.ndarray) -> None:
-        """Spectral products of one application: ``out_c = Σ_d (A_cd S_d + M_cd S_d(−m)) + C_c p̂``.
+        """Spectral products: ``out_c = Σ_d K_cd spec_d + C_c p̂`` (depth-frequency domain).
 
-        Works through slabs of a few x3-frequencies so that the six input slabs and the six
-        accumulators stay in cache while each of the 21 stored pair kernels is read once and used
-        for both ``(c, d)`` and ``(d, c)``. The kernels carry the weight ``w_c`` (see
-        ``__init__``), removed from each accumulator before the traction correction is added. The
-        mirror's input ``S_d(−m)`` of a slab ``[m0, m1)`` is the slab ``(L3 − m0) … (L3 − m1 +
-        1)``: a reversed view, no copy. Slabs are independent: with several threads they are
-        shared out between them (numpy releases the GIL inside each product).
+        Compiled (:func:`~sacflow.kernels.pair_products.pair_products`); the depth frequencies
+        are shared out between the threads (the compiled loop releases the GIL).
         """
-        L3 = spec.shape[1]
-        chunk = self._chunk
-        pairs = self._pairs
-        kernels = ((self._mir, self._mir_sign, True), (self._inf, self._inf_sign, False))
-
-        def block(sl: slice, rsl: slice, tmp: np.ndarray) -> None:
-            t_c = tmp[: sl.stop - sl.start]
-            acc = out[:, sl]
-            acc[...] = 0.0
-            for k, (c, d) in enumerate(pairs):
-                both = ((c, d), (d, c)) if c != d else ((c, d),)
-                for spectra, signs, mirror in kernels:
-                    kernel = spectra[k, sl]
-                    for i, (row, col) in enumerate(both):
-                        np.multiply(kernel, spec[col, rsl if mirror else sl], out=t_c)
-                        if i and signs[k] < 0:
-                            acc[row] -= t_c
-                        else:
-                            acc[row] += t_c
-            for c in range(6):
-                acc_c = acc[c]
-                if self._inv_weight[c] != 1.0:
-                    acc_c *= self._inv_weight[c]
-                np.multiply(self._correction[c, sl], p_hat, out=t_c)
-                acc_c += t_c
-
-        slabs = [(slice(0, 1), slice(0, 1))] + [
-            (slice(m0, min(m0 + chunk, L3)), slice(L3 - m0, L3 - min(m0 + chunk, L3), -1))
-            for m0 in range(1, L3, chunk)
-        ]
-        workers = min(len(self._tmp_c), len(slabs))
+        planes = spec.shape[1]
+        workers = min(self.threads, planes)
+        bounds = np.linspace(0, planes, workers + 1).round().astype(int)
+        args = (spec, self._kernels, self._inv_weight, self._correction, p_hat, out)
         if workers == 1:
-            for sl, rsl in slabs:
-                block(sl, rsl, self._tmp_c[0])
+            pair_products(*args, 0, planes)
             return
-
-        def run(worker: int) -> None:
-            for sl, rsl in slabs[worker::workers]:
-                block(sl, rsl, self._tmp_c[worker])
-
-        for future in [self._pool().submit(run, w) for w in range(workers)]:
+        futures = [self._pool().submit(pair_products, *args, int(m0), int(m1))
+                   for m0, m1 in zip(bounds[:-1], bounds[1:], strict=True)]
+        for future in futures:
             future.result()
 
     def _pool(self) -> ThreadPoolExecutor:
         """Threads of the spectral products (made on first use)."""
         if self._executor is None:
-            self._executor = ThreadPoolExecutor(len(self._tmp_c), "sacflow-eigenstrain")
+            self._executor = ThreadPoolExecutor(self.threads, "sacflow-eigenstrain")
         return self._executor
 
     def residual_stress(self, eps: np.ndarray, with_displacement: bool = False):
@@ -395,17 +459,24 @@ class HalfSpaceEigenstrain:
         """
         n1, n2, n3 = self.shape
         spec = self._forward(eps)
-        displacement = self.residual_displacement(eps, spec) if with_displacement else None
-        # Surface traction of 1 + 2 on the footprint, then its spectrum for the correction.
-        traction = self._lateral_field(self._layer_sum(spec, self._traction))
+        # Surface traction of 1 + 2 on the footprint (and the displacement, in the same pass),
+        # then the traction's spectrum for the correction.
+        fields = self._surface_fields(spec, self._surface if with_displacement
+                                      else self._surface[:1])
+        traction = fields[0]
         self._fft2.real[0] = 0.0
         self._fft2.real[0, :n1, :n2] = traction
         p_hat = self._fft2.forward()[0]
-        self._multiply(spec, p_hat, self._out3.spectrum)
-        real = self._out3.inverse()
-        stress = np.moveaxis(real[:, :n3, :n1, :n2], (0, 1), (3, 2)).copy()
+        self._multiply(spec, p_hat, self._lateral_out.spectrum)
+        self._lateral_out.inverse()
+        for transform in self._depth_inverse:
+            transform()
+        lines = self._lateral_out.real[:, :, :n1, :n2]
+        stress = np.empty((n1, n2, n3, 6))
+        stress[..., EVEN] = np.moveaxis(lines[EVEN, :n3], (0, 1), (3, 2))
+        stress[..., ODD] = np.moveaxis(lines[ODD, 1:n3 + 1], (0, 1), (3, 2))
         if with_displacement:
-            return stress, displacement
+            return stress, fields[1]
         return stress
 
 

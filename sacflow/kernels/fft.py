@@ -38,6 +38,8 @@ __all__ = [
     "HAVE_PYFFTW",
     "Convolution",
     "RealFFT",
+    "RealToReal",
+    "aligned_zeros",
     "default_threads",
     "padded_length",
     "real_fft",
@@ -131,6 +133,9 @@ class RealFFT:
     out_extent : tuple of int, optional
         Only ``real[..., :e_1, …, :e_ndim]`` of the inverse is used: the inverse transform
         computes only the lines that reach that block; the rest of ``real`` is left stale.
+    spectrum : ndarray, optional
+        A complex array (a view is fine) of the spectrum's shape to use as the spectrum buffer
+        instead of a new one, so that a following transform can read it in place.
 
     Notes
     -----
@@ -155,6 +160,7 @@ class RealFFT:
         one_shot: bool = False,
         in_extent: Sequence[int] | None = None,
         out_extent: Sequence[int] | None = None,
+        spectrum: np.ndarray | None = None,
     ):
         self.shape = tuple(int(s) for s in shape)
         self.ndim = ndim
@@ -172,9 +178,13 @@ class RealFFT:
         self._inv_stages: list | None = None
         self._real_written = False
         self._real_tail: tuple | None = None
+        if spectrum is not None and (spectrum.shape != spec_shape
+                                     or spectrum.dtype != np.complex128):
+            raise ValueError(f"spectrum buffer must be complex128 of shape {spec_shape}")
         if HAVE_PYFFTW:
             self.real = pyfftw.empty_aligned(self.shape, dtype="float64")
-            self.spectrum = pyfftw.empty_aligned(spec_shape, dtype="complex128")
+            self.spectrum = (pyfftw.empty_aligned(spec_shape, dtype="complex128")
+                             if spectrum is None else spectrum)
             self._planner, self._time_limit = _planner(self.size, ndim, one_shot)
             if self._prunable(in_extent):
                 self._fwd_stages = self._forward_stages(tuple(int(e) for e in in_extent))
@@ -190,7 +200,7 @@ class RealFFT:
             self.spectrum[...] = 0.0
         else:  # pragma: no cover - fallback
             self.real = np.zeros(self.shape)
-            self.spectrum = np.zeros(spec_shape, dtype=complex)
+            self.spectrum = np.zeros(spec_shape, dtype=complex) if spectrum is None else spectrum
 
     def _prunable(self, extent: Sequence[int] | None) -> bool:
         if extent is None or self.ndim < 2:
@@ -277,6 +287,69 @@ class RealFFT:
     def nbytes(self) -> int:
         """Bytes held by the two buffers."""
         return self.real.nbytes + self.spectrum.nbytes
+
+
+#: scipy.fft fallback (function, type) of each FFTW real-to-real kind used here; unnormalised,
+#: the same definitions (FFTW manual §4.8.3, scipy.fft.dct/dst with norm=None).
+_R2R_FALLBACK = {
+    "FFTW_REDFT10": (scipy.fft.dct, 2),
+    "FFTW_REDFT01": (scipy.fft.dct, 3),
+    "FFTW_RODFT10": (scipy.fft.dst, 2),
+    "FFTW_RODFT01": (scipy.fft.dst, 3),
+}
+
+
+class RealToReal:
+    """Cached real-to-real transform (a DCT or DST of FFTW's ``kind``) along one axis.
+
+    Parameters
+    ----------
+    src, dst : ndarray
+        Input and output (float64, same shape; strided views are fine; the same array for an
+        in-place transform). Out of place, ``src`` is kept intact.
+    axis : int
+        Axis transformed.
+    kind : str
+        ``"FFTW_REDFT10"`` (DCT-II), ``"FFTW_REDFT01"`` (DCT-III), ``"FFTW_RODFT10"`` (DST-II) or
+        ``"FFTW_RODFT01"`` (DST-III); unnormalised: a type II then its type III multiplies by
+        twice the length.
+    threads : int, optional
+        FFT threads; default as :class:`RealFFT` (threaded from 2^18 points).
+    """
+
+    def __init__(self, src: np.ndarray, dst: np.ndarray, axis: int, kind: str,
+                 threads: int | None = None):
+        if kind not in _R2R_FALLBACK:
+            raise ValueError(f"unknown real-to-real kind {kind!r}")
+        if src.shape != dst.shape:
+            raise ValueError(f"shapes differ: {src.shape} and {dst.shape}")
+        self.src, self.dst, self.axis, self.kind = src, dst, axis, kind
+        threads = threads or (default_threads() if src.size >= _THREADED_POINTS else 1)
+        self._plan = None
+        if HAVE_PYFFTW:
+            # FFTW's estimated real-to-real plans are slow on batches of strided lines (a
+            # 64×64×32-cuboid eigenstrain grid: 9.8 ms estimated, 1.3 ms measured): always
+            # measure, within the time limit of 3-D plans (src is overwritten while planning).
+            forced = os.environ.get("SACFLOW_FFTW_PLANNER", "").lower() == "estimate"
+            flag = "FFTW_ESTIMATE" if forced else "FFTW_MEASURE"
+            self._plan = pyfftw.FFTW(src, dst, axes=(axis,), direction=[kind], flags=(flag,),
+                                     threads=threads, planning_timelimit=_PLANNING_SECONDS)
+
+    def __call__(self) -> np.ndarray:
+        """Transform ``src`` into ``dst`` and return ``dst``."""
+        if self._plan is not None:
+            self._plan.execute()
+        else:  # pragma: no cover - fallback
+            function, kind = _R2R_FALLBACK[self.kind]
+            self.dst[...] = function(self.src, type=kind, axis=self.axis)
+        return self.dst
+
+
+def aligned_zeros(shape: Sequence[int], dtype=np.float64) -> np.ndarray:
+    """Zero array aligned for FFTW's SIMD code (plain numpy without pyfftw)."""
+    if HAVE_PYFFTW:
+        return pyfftw.zeros_aligned(tuple(shape), dtype=dtype)
+    return np.zeros(tuple(shape), dtype=dtype)  # pragma: no cover - fallback
 
 
 @functools.lru_cache(maxsize=32)
