@@ -4,8 +4,9 @@ Usage: ``python benchmarks/eigenstrain.py [n1xn2xn3 ...]`` (default 32x32x16 64x
 128x128x64). The floor (the issue's definition, as in DESIGN §6) is the time of twelve
 forward+inverse pairs of 3-D real FFTs of the padded (2 n1 × 2 n2 × 2 n3) grid with pyfftw on
 all cores, planned with FFTW_MEASURE and no time limit (the operator's own 3-D plans have a
-0.3 s limit). An application itself needs six forward and six inverse transforms (six pairs);
-that tighter figure and its ratio are printed too. Prints JSON.
+0.3 s limit). An application transforms six components forward and six back (cosine and sine
+transforms along depth on the footprint lines, 2-D FFTs on 2 n3 + 1 planes), about six pairs'
+worth: that tighter figure and its ratio are printed too. Prints JSON.
 """
 
 from __future__ import annotations

@@ -25,14 +25,16 @@ from datetime import UTC, datetime
 from importlib import metadata
 from pathlib import Path
 from types import TracebackType
-from typing import Any, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import netCDF4
 import numpy as np
-import xarray as xr
 
 from sacflow.schema import Case
 from sacflow.state import COMPONENTS, GridCoords, State
+
+if TYPE_CHECKING:  # xarray is imported where runs are read: writers (campaign workers) skip it
+    import xarray as xr
 
 __all__ = [
     "VARIABLES",
@@ -122,7 +124,8 @@ class RunWriter:
     fields : iterable of str, optional
         Variables to store (default: all of :data:`VARIABLES`).
     compression : int
-        zlib level 0..9 (0: none).
+        zlib level 0..9 (0: none) of the consolidated file; the per-step parts, temporary, are
+        not compressed.
     resume : bool
         Keep the completed steps of an interrupted run of the same case and append after them.
         Otherwise (and for parts of another case) any previous output is removed.
@@ -167,7 +170,9 @@ class RunWriter:
             raise RuntimeError(f"{self.path}: writer is closed")
         values = _state_values(state, self.names, self.coords)
         target = self.parts / f"step-{self.next_step:06d}.nc"
-        with _atomic(target) as tmp, self._create(tmp, self.attrs) as nc:
+        # Parts are temporary: uncompressed (zlib took a third of a small elastic case's time
+        # when each step was compressed twice, in its part and in the consolidated file).
+        with _atomic(target) as tmp, self._create(tmp, self.attrs, compression=0) as nc:
             _write_step(nc, 0, state.step, values)
         self.next_step += 1
 
@@ -199,8 +204,10 @@ class RunWriter:
         else:
             self.abort()
 
-    def _create(self, path: Path, attrs: Mapping[str, Any]) -> netCDF4.Dataset:
-        return _create(path, self.coords, self.names, attrs, self.compression)
+    def _create(self, path: Path, attrs: Mapping[str, Any],
+                compression: int | None = None) -> netCDF4.Dataset:
+        level = self.compression if compression is None else compression
+        return _create(path, self.coords, self.names, attrs, level)
 
 
 def parts_dir(path: str | Path) -> Path:
@@ -403,6 +410,8 @@ def open_run(path: str | Path, lazy: bool = False) -> xr.Dataset:
         Global attribute ``complete`` is 1 for a finished run, 0 for the steps of an
         interrupted one. Volume fields are NaN on steps where they were not stored.
     """
+    import xarray as xr
+
     path = Path(path)
     if path.exists():
         return xr.open_dataset(path) if lazy else _load(path)
@@ -418,6 +427,8 @@ def open_run(path: str | Path, lazy: bool = False) -> xr.Dataset:
 
 
 def _load(path: Path) -> xr.Dataset:
+    import xarray as xr
+
     with xr.open_dataset(path) as ds:
         return ds.load()
 
@@ -456,6 +467,8 @@ def read_scalars(path: str | Path) -> dict[str, np.ndarray]:
     path = Path(path)
     files = [path] if path.exists() else _complete_parts(parts_dir(path))
     columns: dict[str, list[np.ndarray]] = {}
+    import xarray as xr
+
     for file in files:
         with xr.open_dataset(file) as ds:
             for name, var in VARIABLES.items():
@@ -520,6 +533,8 @@ def _read_text_surface(path: Path) -> MeasuredSurface:
 
 
 def _read_netcdf_surface(path: Path, variable: str) -> MeasuredSurface:
+    import xarray as xr
+
     with xr.open_dataset(path) as ds:
         if variable not in ds:
             raise ValueError(f"no variable {variable!r} (found {list(ds.data_vars)})")

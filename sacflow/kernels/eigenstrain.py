@@ -77,7 +77,6 @@ from sacflow.kernels.fft import (
     padded_length,
     wraparound_offsets,
 )
-from sacflow.kernels.pair_products import PAIRS, depth_sums, pair_products
 from sacflow.kernels.residual_displacement import cuboid_surface_displacement
 from sacflow.kernels.surface import rectangle_stress
 
@@ -303,6 +302,10 @@ class HalfSpaceEigenstrain:
         depth = (np.arange(N + 1) * d3)[:, None, None]
         used = used[None] & (np.arange(N + 1) < N)[:, None, None]
         norm = 1.0 / (2 * N * L1 * L2)
+        # numba is imported with the first operator (not with the solver: elastic runs and
+        # campaign workers of elastic cases skip its import, ~0.2 s).
+        from sacflow.kernels.pair_products import PAIRS
+
         slot = {pair: k for k, pair in enumerate(PAIRS)}
         # Point-major storage (one contiguous run of 21 per spectral point): see pair_products.
         kernels = np.empty((N + 1, L1, L2 // 2 + 1, 21))
@@ -410,6 +413,8 @@ class HalfSpaceEigenstrain:
         """
         n1, n2, _ = self.shape
         sums = np.empty((kernels.shape[0], *spectrum.shape[2:]), dtype=complex)
+        from sacflow.kernels.pair_products import depth_sums
+
         depth_sums(spectrum, kernels, sums)
         fields = np.empty((kernels.shape[0], n1, n2))
         for q, spectrum2 in enumerate(sums):
@@ -433,6 +438,8 @@ class HalfSpaceEigenstrain:
         Compiled (:func:`~sacflow.kernels.pair_products.pair_products`); the depth frequencies
         are shared out between the threads (the compiled loop releases the GIL).
         """
+        from sacflow.kernels.pair_products import pair_products
+
         planes = spec.shape[1]
         workers = min(self.threads, planes)
         bounds = np.linspace(0, planes, workers + 1).round().astype(int)
