@@ -467,13 +467,14 @@ def read_scalars(path: str | Path) -> dict[str, np.ndarray]:
     path = Path(path)
     files = [path] if path.exists() else _complete_parts(parts_dir(path))
     columns: dict[str, list[np.ndarray]] = {}
-    import xarray as xr
-
-    for file in files:
-        with xr.open_dataset(file) as ds:
+    for file in files:  # netCDF4 directly: a campaign worker need not import xarray for this
+        with netCDF4.Dataset(file) as nc:
+            nc.set_auto_mask(False)  # unwritten floats are NaN (their fill value) as they are
             for name, var in VARIABLES.items():
-                if var.dims == SCALAR and name in ds:
-                    columns.setdefault(name, []).append(ds[name].values)
+                if var.dims == SCALAR and name in nc.variables:
+                    values = np.asarray(nc[name][:])
+                    columns.setdefault(name, []).append(
+                        values.astype(bool) if var.dtype == "bool" else values)
     return {name: np.concatenate(chunks) for name, chunks in columns.items()}
 
 

@@ -91,3 +91,16 @@ def test_pair_products_equal_the_dense_six_by_six_products():
     pair_products(spec, kernels, inv_weight, correction, p_hat, out, 1, M)
     assert_allclose(out[:, 1:], expected[:, 1:], rtol=1e-13, atol=1e-13)
     assert not out[:, 0].any()  # only the planes asked for
+
+
+def test_pyfftw_is_imported_without_dask_array_which_stays_importable():
+    """pyfftw's optional dask interface (dask.array, xarray, pandas) is not loaded with it."""
+    import subprocess
+    import sys
+
+    code = ("import sys, sacflow.kernels.fft as f\n"
+            "print(f.HAVE_PYFFTW, 'dask.array' in sys.modules, 'xarray' in sys.modules)\n"
+            "import dask.array\n"
+            "print(dask.array.ones(3).sum().compute())\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.split() == ["True", "False", "False", "3.0"]

@@ -160,6 +160,9 @@ def test_round_trip(tmp_path, case, coords):
 
     scalars = read_scalars(path)
     assert_array_equal(scalars["load"], [s.load for s in states])
+    for name, values in scalars.items():  # as xarray decodes them (bool flags, NaN fill)
+        assert values.dtype == ds[name].dtype, name
+        assert_array_equal(values, ds[name].values)
 
     with xr.open_dataset(path) as plain:  # readable without sacflow
         assert plain.sizes["step"] == 3
