@@ -408,6 +408,7 @@ def worker_threads() -> dict:
         "env": {name: os.environ.get(name) for name in names},
         "pools": {(p["user_api"], p["num_threads"]) for p in threadpool_info()},
         "solver": "sacflow.solver" in sys.modules,
+        "profiler": __import__("dask").config.get("distributed.worker.profile.enabled"),
     }
 
 
@@ -425,6 +426,7 @@ def test_local_cluster_workers_are_single_threaded_and_preloaded():
         assert {n for api, n in worker["pools"] if api in ("blas", "openmp")} == {1}, worker
         if "forkserver" in multiprocessing.get_all_start_methods():
             assert worker["solver"], "forked from a server that imported the solver"
+        assert worker["profiler"] is False, "the statistical profiler is off"
     after = {name: os.environ.get(name) for name in before}
     assert after == before, "this process's environment is left as it was"
 
