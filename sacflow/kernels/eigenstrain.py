@@ -94,6 +94,8 @@ MIRROR_SIGN = np.array([1.0, 1.0, 1.0, 1.0, -1.0, -1.0])
 EVEN, ODD = slice(0, 4), slice(4, 6)
 #: Reciprocity weights of the components (tensor shears count twice in σ : ε).
 WEIGHT = np.array([1.0, 1.0, 1.0, 2.0, 2.0, 2.0])
+
+
 def _check_transpose(stored: np.ndarray, other: np.ndarray, odd: bool, c: int, d: int) -> None:
     """Check the weighted kernel of (c, d) against its stored transpose (d, c).
 
@@ -168,8 +170,8 @@ def kernel_bytes(shape: Sequence[int]) -> int:
     """Bytes of cached spectra and FFT buffers a :class:`HalfSpaceEigenstrain` of ``shape`` needs.
 
     Counts the 21 pair spectra (real) and the 3 × 6 surface and correction spectra (complex, over
-    N + 1 depth frequencies), the two transform buffers (real and complex), the work space of
-    the products, and the transient of the set-up (one source's kernel field and transforms).
+    N + 1 depth frequencies), the two transform buffers (real and complex), and the transient of
+    the set-up (one source's kernel field and transforms).
     """
     n1, n2, n3 = shape
     L1, L2, N = _padded(shape)
@@ -268,6 +270,9 @@ class HalfSpaceEigenstrain:
         # 64 × 64 × 32 7.5 vs 14 ms.
         self.threads = int(threads or default_threads())
         self._executor: ThreadPoolExecutor | None = None
+        workers = min(self.threads, N + 1)  # contiguous ranges of depth frequencies, one each
+        bounds = np.linspace(0, N + 1, workers + 1).round().astype(int)
+        self._ranges = [(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
         self._kernels = self._pair_kernels(threads)
         self._inv_weight = 1.0 / WEIGHT
         # Surface kernels (traction, displacement) stacked for one pass; traction correction.
@@ -286,7 +291,7 @@ class HalfSpaceEigenstrain:
         return (o1 * d1)[:, None], (o2 * d2)[None, :], used
 
     def _pair_kernels(self, threads: int | None):
-        """The 21 stored pair spectra (weighted, normalised) and the sign of each transpose.
+        """The 21 stored pair spectra (weighted, normalised), point-major (N + 1, L1, L2h, 21).
 
         The infinite-space kernel ``A_cd(x1, x2, o d3)`` is evaluated for depth offsets
         ``o = 0 … N`` (zero at ``o = N``, which no pair of cells needs), transformed laterally,
@@ -327,7 +332,7 @@ class HalfSpaceEigenstrain:
                     stored[k] = spec
                 else:  # the transpose: ±(stored), as pair_products assumes; checked
                     k = slot[d, c]
-                    _check_transpose(stored.pop(k) if k in stored else None, spec, odd, c, d)
+                    _check_transpose(stored.pop(k), spec, odd, c, d)
             del field
         return kernels
 
@@ -366,10 +371,10 @@ class HalfSpaceEigenstrain:
             layer[2, :, j] = spectra(np.moveaxis(
                 rectangle_stress(o1, o2, zj, h1, h2, self.nu), -1, 0))
         out = np.empty((3, 6, N + 1, L1, L2 // 2 + 1), dtype=complex)
+        weight = np.full(N + 1, 2.0)
+        weight[[0, N]] = 1.0
         for c in range(6):
             basis = _depth_basis(N, n3, odd=MIRROR_SIGN[c] < 0)
-            weight = np.full(N + 1, 2.0)
-            weight[[0, N]] = 1.0
             # Inverse (for the layer sums, 1/(2N) there) and forward (type II: 2 × basis).
             synthesis = basis * (weight[:, None] / (2 * N * L1 * L2))
             analysis = basis * (2.0 / (2 * N * L1 * L2))
@@ -384,11 +389,6 @@ class HalfSpaceEigenstrain:
         return cuboid_stress_component(
             x1, x2, x3, d1 / 2, d2 / 2, d3 / 2, self.nu, self.mu, source
         )[..., 2]
-
-    def _spectrum2(self, field: np.ndarray) -> np.ndarray:
-        """Unnormalised 2-D spectrum of a wrap-around lateral field (copy)."""
-        self._fft2.real[0] = field
-        return self._fft2.forward()[0].copy()
 
     # ------------------------------------------------------------------ application
     def _forward(self, eps: np.ndarray) -> np.ndarray:
@@ -440,15 +440,11 @@ class HalfSpaceEigenstrain:
         """
         from sacflow.kernels.pair_products import pair_products
 
-        planes = spec.shape[1]
-        workers = min(self.threads, planes)
-        bounds = np.linspace(0, planes, workers + 1).round().astype(int)
         args = (spec, self._kernels, self._inv_weight, self._correction, p_hat, out)
-        if workers == 1:
-            pair_products(*args, 0, planes)
+        if len(self._ranges) == 1:
+            pair_products(*args, *self._ranges[0])
             return
-        futures = [self._pool().submit(pair_products, *args, int(m0), int(m1))
-                   for m0, m1 in zip(bounds[:-1], bounds[1:], strict=True)]
+        futures = [self._pool().submit(pair_products, *args, m0, m1) for m0, m1 in self._ranges]
         for future in futures:
             future.result()
 

@@ -58,7 +58,6 @@ __all__ = [
     "Convolution",
     "RealFFT",
     "RealToReal",
-    "aligned_zeros",
     "default_threads",
     "padded_length",
     "real_fft",
@@ -152,9 +151,6 @@ class RealFFT:
     out_extent : tuple of int, optional
         Only ``real[..., :e_1, …, :e_ndim]`` of the inverse is used: the inverse transform
         computes only the lines that reach that block; the rest of ``real`` is left stale.
-    spectrum : ndarray, optional
-        A complex array (a view is fine) of the spectrum's shape to use as the spectrum buffer
-        instead of a new one, so that a following transform can read it in place.
 
     Notes
     -----
@@ -179,7 +175,6 @@ class RealFFT:
         one_shot: bool = False,
         in_extent: Sequence[int] | None = None,
         out_extent: Sequence[int] | None = None,
-        spectrum: np.ndarray | None = None,
     ):
         self.shape = tuple(int(s) for s in shape)
         self.ndim = ndim
@@ -197,13 +192,9 @@ class RealFFT:
         self._inv_stages: list | None = None
         self._real_written = False
         self._real_tail: tuple | None = None
-        if spectrum is not None and (spectrum.shape != spec_shape
-                                     or spectrum.dtype != np.complex128):
-            raise ValueError(f"spectrum buffer must be complex128 of shape {spec_shape}")
         if HAVE_PYFFTW:
             self.real = pyfftw.empty_aligned(self.shape, dtype="float64")
-            self.spectrum = (pyfftw.empty_aligned(spec_shape, dtype="complex128")
-                             if spectrum is None else spectrum)
+            self.spectrum = pyfftw.empty_aligned(spec_shape, dtype="complex128")
             self._planner, self._time_limit = _planner(self.size, ndim, one_shot)
             if self._prunable(in_extent):
                 self._fwd_stages = self._forward_stages(tuple(int(e) for e in in_extent))
@@ -219,7 +210,7 @@ class RealFFT:
             self.spectrum[...] = 0.0
         else:  # pragma: no cover - fallback
             self.real = np.zeros(self.shape)
-            self.spectrum = np.zeros(spec_shape, dtype=complex) if spectrum is None else spectrum
+            self.spectrum = np.zeros(spec_shape, dtype=complex)
 
     def _prunable(self, extent: Sequence[int] | None) -> bool:
         if extent is None or self.ndim < 2:
@@ -362,13 +353,6 @@ class RealToReal:
             function, kind = _R2R_FALLBACK[self.kind]
             self.dst[...] = function(self.src, type=kind, axis=self.axis)
         return self.dst
-
-
-def aligned_zeros(shape: Sequence[int], dtype=np.float64) -> np.ndarray:
-    """Zero array aligned for FFTW's SIMD code (plain numpy without pyfftw)."""
-    if HAVE_PYFFTW:
-        return pyfftw.zeros_aligned(tuple(shape), dtype=dtype)
-    return np.zeros(tuple(shape), dtype=dtype)  # pragma: no cover - fallback
 
 
 @functools.lru_cache(maxsize=32)
