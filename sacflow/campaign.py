@@ -79,6 +79,9 @@ WORKER_ENV = {
 }
 #: Modules the fork server imports once, before forking the local cluster's workers.
 WORKER_PRELOAD = ("distributed", "sacflow.campaign", "sacflow.runner", "sacflow.solver")
+#: ... and, when a case has plasticity, what only elastic-plastic runs import (numba included).
+PLASTIC_PRELOAD = ("scipy.sparse.linalg", "sacflow.kernels.eigenstrain",
+                   "sacflow.kernels.pair_products")
 #: Case names longer than this end in a digest of the parameters instead of all the tags.
 MAX_NAME = 120
 WORKER_DIED = (
@@ -629,6 +632,8 @@ def run_campaign(
     out_dir.mkdir(parents=True, exist_ok=True)
     manifest = _Manifest(campaign, cases, out_dir)
     pending = _skip_complete(cases, manifest)
+    if pending and not scheduler:  # its imports overlap the rest, up to the workers' start
+        _start_fork_server(plastic=any(c.case.body.hardening.law != "elastic" for c in pending))
     manifest.write()
     _say(
         f"{campaign.name}: {len(cases)} cases, {len(cases) - len(pending)} already complete, "
@@ -728,7 +733,7 @@ def _client(scheduler: str | None, workers: int | None, tasks: int) -> Iterator[
             yield client
         return
     n = min(workers or _cores(), tasks)
-    method = _start_fork_server()  # first: its imports overlap the scheduler's start below
+    method = _start_fork_server()  # started already by run_campaign, else now
     import dask
     from distributed import Client, LocalCluster
 
@@ -760,22 +765,23 @@ def _client(scheduler: str | None, workers: int | None, tasks: int) -> Iterator[
             cluster.close()
 
 
-def _start_fork_server() -> str:
+def _start_fork_server(plastic: bool = False) -> str:
     """Start multiprocessing's fork server for the local cluster; return the start method.
 
-    The fork server imports :data:`WORKER_PRELOAD` once; the workers forked from it start with
-    everything a case needs loaded (a spawned worker imports it all again, about 1 s of a core
-    each) and exit at once (a spawned one tears down its interpreter, about 1 s at the end of a
-    campaign). It is started once per process, in the environment of :func:`_worker_environ`;
-    a fork server already running (started elsewhere in this process) is used as it is.
-    ``spawn`` where there is no fork server (Windows).
+    The fork server imports :data:`WORKER_PRELOAD` once (and :data:`PLASTIC_PRELOAD` for
+    ``plastic`` campaigns); the workers forked from it start with everything a case needs loaded
+    (a spawned worker imports it all again, about 1 s of a core each) and exit at once (a
+    spawned one tears down its interpreter, about 1 s at the end of a campaign). It is started
+    once per process, in the environment of :func:`_worker_environ`; a fork server already
+    running (started earlier in this process) is used as it is. ``spawn`` where there is no
+    fork server (Windows).
     """
     import multiprocessing
     from multiprocessing import forkserver
 
     if "forkserver" not in multiprocessing.get_all_start_methods():  # pragma: no cover
         return "spawn"
-    forkserver.set_forkserver_preload(list(WORKER_PRELOAD))
+    forkserver.set_forkserver_preload(list(WORKER_PRELOAD + (PLASTIC_PRELOAD if plastic else ())))
     with _environ(_worker_environ()):
         forkserver.ensure_running()  # returns once started; the imports go on in the server
     return "forkserver"

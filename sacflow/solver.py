@@ -32,13 +32,11 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.sparse.linalg import LinearOperator, gmres
 
 from sacflow.anderson import AndersonMixer
 from sacflow.contact import ContactResult, solve_contact
 from sacflow.errors import BoxTooShallowError, ConvergenceError, SacflowError
 from sacflow.geometry import curvature_gap, features_gap
-from sacflow.kernels.eigenstrain import HalfSpaceEigenstrain
 from sacflow.kernels.fft import Convolution
 from sacflow.kernels.surface import rectangle_displacement, rectangle_stress
 from sacflow.plasticity import (
@@ -211,23 +209,25 @@ class Simulation:
         z = (np.arange(self.nz) + 0.5) * self.dz
 
         def stresses(d1, d2):
-            s = rectangle_stress(d1 * dx1, d2 * dx2, z[:, None, None], h1, h2, nu)
-            s = np.moveaxis(s, -1, 1)  # (nz, 6, L1, L2)
-            return s.reshape(6 * self.nz, 1, *s.shape[2:])
+            # One layer at a time: the closed form's temporaries stay small (in cache).
+            out = np.empty((self.nz, 6, *np.broadcast_shapes(d1.shape, d2.shape)))
+            for k, depth in enumerate(z):
+                out[k] = np.moveaxis(rectangle_stress(d1 * dx1, d2 * dx2, depth, h1, h2, nu), -1, 0)
+            return out.reshape(6 * self.nz, 1, *out.shape[2:])
 
         # Pressure (embedded in the body grid at the window's place) -> stress on the body grid:
         # one operator serves every load position.
         self.pressure_stress_op = Convolution(
             stresses, self.body_shape, self.body_shape, threads=self.threads
         )
-        self.eigen = (
-            HalfSpaceEigenstrain(
+        self.eigen = None
+        if self.plastic:  # elastic runs do without it (and without numba)
+            from sacflow.kernels.eigenstrain import HalfSpaceEigenstrain
+
+            self.eigen = HalfSpaceEigenstrain(
                 (*self.body_shape, self.nz), (dx1, dx2, self.dz), self.E, self.nu,
                 threads=self.threads,
             )
-            if self.plastic
-            else None
-        )
 
     def _pressure_stress(self, pressure: np.ndarray, sl) -> np.ndarray:
         """Stress [Pa] on the body grid, (nbx, nby, nz, 6), of the window pressure at ``sl``."""
@@ -394,6 +394,8 @@ class Simulation:
         the residual. Returns ``(Δεp, Δp, residual-stress applications)`` with ``Δεp = G(x)``,
         or the converged iterate ``x`` itself with ``accept_iterate``.
         """
+        from scipy.sparse.linalg import LinearOperator, gmres  # plastic runs only
+
         opts = self.case.solver
         depth, mu, eqps = self.coords.x3, self.mu, self.eqps
         shape = x.shape

@@ -7,8 +7,10 @@ at top level.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import hashlib
+import importlib.util
 import json
 import multiprocessing
 import os
@@ -429,6 +431,44 @@ def test_local_cluster_workers_are_single_threaded_and_preloaded():
         assert worker["profiler"] is False, "the statistical profiler is off"
     after = {name: os.environ.get(name) for name in before}
     assert after == before, "this process's environment is left as it was"
+
+
+def test_fork_server_preloads_plasticity_only_for_plastic_campaigns(folder, monkeypatch):
+    """The fork server imports eigenstrain operators and numba only when a case needs them."""
+    from multiprocessing import forkserver
+
+    if "forkserver" not in multiprocessing.get_all_start_methods():
+        pytest.skip("no fork server on this platform")
+    preloads: list[list[str]] = []
+    monkeypatch.setattr(forkserver, "set_forkserver_preload", preloads.append)
+    monkeypatch.setattr(forkserver, "ensure_running", lambda: None)
+    monkeypatch.setattr(campaign_module, "_client", _no_client)
+    elastic = '[[sweep]]\nmode = "zip"\nparameters = { "load_path.0.to" = [0.2, 0.3] }'
+    mixed = (
+        '[[sweep]]\nmode = "zip"\nparameters = { "body.hardening" = '
+        '[{ law = "elastic" }, { law = "perfectly_plastic", yield_stress = 2e9 }] }'
+    )
+    for name, sweep in (("elastic", elastic), ("mixed", mixed)):
+        path = write(folder, campaign_text(sweep, name=name), f"{name}.toml")
+        with pytest.raises(_Stop):  # after the fork server's start, at the cluster's
+            run_campaign(load_campaign(path), folder / name, workers=1, progress=False)
+    elastic_list, mixed_list = preloads
+    assert set(campaign_module.WORKER_PRELOAD) <= set(elastic_list)
+    assert not set(campaign_module.PLASTIC_PRELOAD) & set(elastic_list)
+    assert set(campaign_module.WORKER_PRELOAD + campaign_module.PLASTIC_PRELOAD) == set(mixed_list)
+    for module in campaign_module.PLASTIC_PRELOAD:  # the names are importable modules
+        assert importlib.util.find_spec(module) is not None, module
+
+
+@contextlib.contextmanager
+def _no_client(*args):
+    """Stands in for the dask client: a campaign whose cases are never submitted."""
+    raise _Stop
+    yield
+
+
+class _Stop(Exception):
+    pass
 
 
 def test_longest_cases_are_submitted_first(folder):

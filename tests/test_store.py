@@ -259,6 +259,50 @@ def test_resume_rules(tmp_path, case, coords):
     assert RunWriter(path, case, coords, resume=False).next_step == 0
     assert not path.exists(), "a fresh start removes the old run file"
 
+def elastic_like_state(step: int, coords: GridCoords) -> State:
+    """A state as an elastic body gives: zero plastic fields, infinite yield stress."""
+    state = make_state(step, coords)
+    for name in ("plastic_strain", "equivalent_plastic_strain", "residual_stress"):
+        state.volume[name] = np.zeros_like(state.volume[name])
+    state.volume["yield_stress"] = np.full(coords.shape, np.inf)
+    state.surface["residual_displacement"] = np.zeros(coords.shape[:2])
+    state.volume["stress"].reshape(-1)[[0, -1]] = 1.5  # equal ends, different inside
+    return state
+
+
+def test_uniform_fields_are_recorded_by_value_in_parts(tmp_path, case, coords):
+    import netCDF4
+
+    path = tmp_path / "run.nc"
+    states = [elastic_like_state(i, coords) for i in range(3)]
+    writer = RunWriter(path, case, coords)
+    for state in states[:2]:
+        writer.append(state)
+    uniform = {"plastic_strain", "equivalent_plastic_strain", "residual_stress",
+               "yield_stress", "residual_displacement"}
+    part = parts_dir(path) / "step-000001.nc"
+    with netCDF4.Dataset(part) as nc:
+        recorded = json.loads(nc.uniform_fields)
+        assert set(recorded) == uniform
+        assert recorded["yield_stress"] == np.inf and recorded["plastic_strain"] == 0.0
+        nc.set_auto_mask(False)
+        assert np.isnan(nc["residual_stress"][0]).all(), "a uniform field is not written out"
+        assert_array_equal(nc["stress"][0], states[1].volume["stress"])
+
+    interrupted = open_run(path)  # the completed steps of an unfinished run
+    assert "uniform_fields" not in interrupted.attrs
+    for index in range(2):
+        assert_step_matches(interrupted, index, states[index])
+
+    resumed = RunWriter(path, case, coords, resume=True)
+    resumed.append(states[2])
+    resumed.close()
+    ds = open_run(path)
+    assert "uniform_fields" not in ds.attrs and ds.attrs["complete"] == 1
+    for index, state in enumerate(states):
+        assert_step_matches(ds, index, state)
+
+
 
 WRITER_SCRIPT = """
 import sys, time

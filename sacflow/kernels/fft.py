@@ -427,16 +427,14 @@ class Convolution:
         for g, no, o in zip(grids, self.out_shape, self.offset, strict=True):
             valid &= g <= o + no - 1
         coeffs = np.asarray(coefficients(*grids), dtype=float)
-        coeffs = np.where(valid, coeffs, 0.0)
         self.n_out, self.n_in = coeffs.shape[:2]
         batch = RealFFT(
             (self.n_out * self.n_in, *self.padded), self.ndim, threads, one_shot=True
         )
-        batch.real[...] = coeffs.reshape(batch.shape)
+        np.copyto(batch.real, coeffs.reshape(batch.shape), where=valid)  # zero elsewhere
         del coeffs
-        self.spectra = batch.forward().reshape(
-            self.n_out, self.n_in, *batch.spectrum_shape[1:]
-        ) / batch.size
+        self.spectra = batch.forward().reshape(self.n_out, self.n_in, *batch.spectrum_shape[1:])
+        self.spectra /= batch.size  # in place: the batch's own spectrum buffer, kept
         del batch
         self.spectra.flags.writeable = False
         self._in_window = (slice(None), *(slice(0, n) for n in self.in_shape))
