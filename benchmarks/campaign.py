@@ -17,6 +17,9 @@ workers' imports), the speed-up, and the overhead per case:
   spent inside the tasks (worker imports, FFT planning);
 * ``dispatch_overhead_per_case``: (workers x campaign wall - sum of the task times) / cases, the
   part outside the tasks (cluster start and stop, scheduling, idle workers at the end);
+* ``campaign_wall_warm_cluster`` and ``speedup_warm_cluster``: the same campaign on a cluster
+  that is running already and whose workers have run these cases once (``--scheduler`` on a
+  cluster kept between campaigns): no start, no first case in a fresh process;
 * ``cluster_start``: seconds to start and stop sacflow's local cluster of the same size (fork
   server included) in a fresh process, running one trivial task; ``cluster_start_dask_default``:
   the same for a plain ``LocalCluster`` (spawned workers), in this process;
@@ -104,6 +107,18 @@ def stop_fork_server() -> None:
         stop()
 
 
+def warm_cluster(campaign, folder: Path, workers: int) -> float:
+    """Wall time of the campaign on a running cluster whose workers have run it once already."""
+    from sacflow.campaign import _client, run_campaign
+
+    with _client(None, workers, workers) as client:
+        address = client.scheduler.address
+        run_campaign(campaign, folder / "warm-up", scheduler=address, progress=False)
+        start = time.perf_counter()
+        run_campaign(campaign, folder / "warm", scheduler=address, progress=False)
+        return time.perf_counter() - start
+
+
 def cluster_start(workers: int) -> float:
     """Start and stop sacflow's local cluster in a fresh process (its fork server is cold)."""
     code = (
@@ -156,6 +171,7 @@ def main() -> None:
         parallel = time.perf_counter() - start
         stop_fork_server()  # after the clock: its workers' CPU counts once it has exited
         campaign_cpu = cpu() + cpu(resource.RUSAGE_CHILDREN) - cpu_start
+        warm = warm_cluster(campaign, folder, args.workers)
         task_times = [r.wall_time or 0.0 for r in summary.records]
         task_cpu = [r.cpu_time or 0.0 for r in summary.records]
         failed = [r.name for r in summary.failed]
@@ -177,6 +193,8 @@ def main() -> None:
         "campaign_task_cpu": [round(t, 3) for t in task_cpu],
         "speedup_vs_serial_fft1": round(serial_1 / parallel, 3),
         "speedup_vs_serial_fft_all_cores": round(serial_all / parallel, 3),
+        "campaign_wall_warm_cluster": round(warm, 3),
+        "speedup_warm_cluster": round(serial_1 / warm, 3),
         "overhead_per_case": round((args.workers * parallel - serial_1) / n, 3),
         "task_overhead_per_case": round((sum(task_times) - serial_1) / n, 3),
         "dispatch_overhead_per_case": round((args.workers * parallel - sum(task_times)) / n, 3),

@@ -35,19 +35,20 @@ def hertz_problem(n: int, half_width: float = 1.5, e_star: float | None = None, 
 def test_dcfft_equals_direct_summation():
     rng = np.random.default_rng(0)
 
-    def kernel(d1, d2):
-        return np.stack([
-            np.stack([1.0 / (1 + (d1 + 0.3) ** 2 + 2 * d2**2), np.sin(d1) + 0.1 * d2]),
-        ])
+    def kernel(d1, d2):  # 3 output components from 2 input components
+        one = np.stack([1.0 / (1 + (d1 + 0.3) ** 2 + 2 * d2**2), np.sin(d1) + 0.1 * d2])
+        return np.stack([one, np.cos(0.7 * d2) * one, (d1 - 0.5 * d2) * one[::-1]])
 
     x = rng.random((2, 7, 5))
     for offset, out_shape in (((0, 0), (7, 5)), ((2, -1), (4, 9)), ((-3, 2), (6, 3))):
-        conv = Convolution(kernel, (7, 5), out_shape, offset)
         i, j, p, q = np.meshgrid(*(np.arange(n) for n in (*out_shape, 7, 5)), indexing="ij")
-        k = kernel(i + offset[0] - p, j + offset[1] - q)  # (1, 2, o1, o2, 7, 5)
+        k = kernel(i + offset[0] - p, j + offset[1] - q)  # (3, 2, o1, o2, 7, 5)
         direct = np.einsum("cdijpq,dpq->cij", k, x)
-        assert_allclose(conv(x), direct, rtol=0, atol=1e-13 * np.abs(direct).max(),
-                        err_msg=f"DC-FFT differs from direct summation, offset {offset}")
+        for block in (None, 1, 2):  # all output components at once, one by one, 2 + 1
+            conv = Convolution(kernel, (7, 5), out_shape, offset, block=block)
+            assert_allclose(conv(x), direct, rtol=0, atol=1e-13 * np.abs(direct).max(),
+                            err_msg=f"DC-FFT differs from direct summation, offset {offset}, "
+                            f"block {block}")
 
 
 def test_hertz_at_64_cells_across():
