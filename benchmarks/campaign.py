@@ -7,7 +7,8 @@ cases a campaign is for); ``serial_case_time_mean_fft1`` reports it. Both the se
 campaign run exactly these cases.
 
 Prints JSON (never asserts): wall times of the serial runs (``run_case`` in this process, one
-FFT thread, then all cores; sacflow's modules are imported before the clock starts) and of the
+FFT thread, then all cores; sacflow's modules are imported before the clock starts, malloc set up
+as ``sacflow run`` does) and of the
 campaign (``run_campaign`` on a new LocalCluster, which includes starting the cluster and the
 workers' imports), the speed-up, and the overhead per case:
 
@@ -64,10 +65,17 @@ def build_campaign(cases: int, nx: int, nz: int, increments: int):
 
 
 def serial(campaign, out: Path, fft_threads: str | None) -> tuple[float, list[float], list[float]]:
-    """Run every case with ``run_case`` in this process: wall time, per-case wall and CPU."""
+    """Run every case with ``run_case`` in this process: wall time, per-case wall and CPU.
+
+    The process has the malloc settings of ``sacflow run`` and of the campaign workers
+    (:func:`sacflow.malloc.tune_malloc`), so that both sides allocate memory the same way.
+    """
     import sacflow.solver  # noqa: F401 - imported before the clock, like sacflow.runner
     from sacflow.campaign import expand_campaign
+    from sacflow.malloc import tune_malloc
     from sacflow.runner import run_case
+
+    tune_malloc()
 
     previous = os.environ.get("SACFLOW_FFT_THREADS")
     if fft_threads is None:

@@ -54,6 +54,7 @@ from sacflow.config import (
     read_file,
 )
 from sacflow.errors import ConfigError, SacflowError
+from sacflow.malloc import MALLOC_ENV
 from sacflow.schema import FIELD_ERROR, Campaign, Case, Sweep
 
 __all__ = [
@@ -738,9 +739,11 @@ def _client(scheduler: str | None, workers: int | None, tasks: int) -> Iterator[
     from distributed import Client, LocalCluster
 
     config = {
-        # dask sets MALLOC_TRIM_THRESHOLD_ in its workers, which turns off glibc's adaptive mmap
-        # threshold: every large temporary array is then mapped and zero-filled afresh, and the
-        # solver runs about 1.6 times slower (measured on a 96 x 96 x 16 elastic case). Unset it.
+        # dask sets MALLOC_TRIM_THRESHOLD_=65536 in its workers (and in this process, for good),
+        # which turns off glibc's adaptive mmap threshold: every large temporary array is then
+        # mapped and zero-filled afresh, and the solver runs about 1.6 times slower (measured on
+        # a 96 x 96 x 16 elastic case). Not set here: the workers get sacflow.malloc's settings
+        # from the environment of _worker_environ (the fork server's, or this one's for spawn).
         "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
         "distributed.worker.multiprocessing-method": method,
         # The workers' statistical profiler takes the GIL every 10 ms to walk the running
@@ -789,7 +792,7 @@ def _start_fork_server(plastic: bool = False) -> str:
 
 def _worker_environ() -> dict[str, str | None]:
     """Environment changes for the worker processes (None: unset)."""
-    return {**WORKER_ENV, "MALLOC_TRIM_THRESHOLD_": None}
+    return {**WORKER_ENV, **MALLOC_ENV}
 
 
 @contextmanager

@@ -102,8 +102,10 @@ def _load_all(args: argparse.Namespace) -> list[Case]:
 
 
 def _run(args: argparse.Namespace) -> int:
+    from sacflow.malloc import tune_malloc
     from sacflow.runner import run_case  # imports xarray and the solver only when running
 
+    tune_malloc()  # this process is sacflow's own: reuse memory between steps and cases
     status = 0
     for case in _load_all(args):
         try:

@@ -39,6 +39,7 @@ from sacflow.campaign import (
 from sacflow.cli import main
 from sacflow.config import load_case
 from sacflow.errors import ConfigError, ConvergenceError
+from sacflow.malloc import MALLOC_ENV
 from sacflow.schema import NAME_PATTERN, Case
 from sacflow.store import completed_steps, is_complete, open_run
 
@@ -405,7 +406,7 @@ def worker_threads() -> dict:
     """Runs in a worker: its thread settings and whether the solver was imported before."""
     from threadpoolctl import threadpool_info
 
-    names = [*campaign_module.WORKER_ENV, "MALLOC_TRIM_THRESHOLD_"]
+    names = [*campaign_module.WORKER_ENV, *MALLOC_ENV]
     return {
         "env": {name: os.environ.get(name) for name in names},
         "pools": {(p["user_api"], p["num_threads"]) for p in threadpool_info()},
@@ -418,13 +419,13 @@ def test_local_cluster_workers_are_single_threaded_and_preloaded():
     """One thread per library in each worker; the fork server imported the solver once."""
     before = {
         name: os.environ.get(name)
-        for name in (campaign_module.FFT_THREADS_ENV, "MALLOC_TRIM_THRESHOLD_")
+        for name in (campaign_module.FFT_THREADS_ENV, *MALLOC_ENV)
     }
     with campaign_module._client(None, 2, 2) as client:
         info = client.run(worker_threads)
     assert len(info) == 2
     for worker in info.values():
-        assert worker["env"] == {**campaign_module.WORKER_ENV, "MALLOC_TRIM_THRESHOLD_": None}
+        assert worker["env"] == {**campaign_module.WORKER_ENV, **MALLOC_ENV}
         assert {n for api, n in worker["pools"] if api in ("blas", "openmp")} == {1}, worker
         if "forkserver" in multiprocessing.get_all_start_methods():
             assert worker["solver"], "forked from a server that imported the solver"
