@@ -83,6 +83,8 @@ WORKER_PRELOAD = ("distributed", "sacflow.campaign", "sacflow.runner", "sacflow.
 #: ... and, when a case has plasticity, what only elastic-plastic runs import (numba included).
 PLASTIC_PRELOAD = ("scipy.sparse.linalg", "sacflow.kernels.eigenstrain",
                    "sacflow.kernels.pair_products")
+#: ... and last, a module that freezes the garbage collector's view of all that (gc.freeze).
+FORK_SERVER_LAST = "sacflow._freeze"
 #: Case names longer than this end in a digest of the parameters instead of all the tags.
 MAX_NAME = 120
 WORKER_DIED = (
@@ -772,7 +774,8 @@ def _start_fork_server(plastic: bool = False) -> str:
     """Start multiprocessing's fork server for the local cluster; return the start method.
 
     The fork server imports :data:`WORKER_PRELOAD` once (and :data:`PLASTIC_PRELOAD` for
-    ``plastic`` campaigns); the workers forked from it start with everything a case needs loaded
+    ``plastic`` campaigns), then freezes the objects it made (:data:`FORK_SERVER_LAST`); the
+    workers forked from it start with everything a case needs loaded
     (a spawned worker imports it all again, about 1 s of a core each) and exit at once (a
     spawned one tears down its interpreter, about 1 s at the end of a campaign). It is started
     once per process, in the environment of :func:`_worker_environ`; a fork server already
@@ -784,7 +787,8 @@ def _start_fork_server(plastic: bool = False) -> str:
 
     if "forkserver" not in multiprocessing.get_all_start_methods():  # pragma: no cover
         return "spawn"
-    forkserver.set_forkserver_preload(list(WORKER_PRELOAD + (PLASTIC_PRELOAD if plastic else ())))
+    modules = WORKER_PRELOAD + (PLASTIC_PRELOAD if plastic else ()) + (FORK_SERVER_LAST,)
+    forkserver.set_forkserver_preload(list(modules))
     with _environ(_worker_environ()):
         forkserver.ensure_running()  # returns once started; the imports go on in the server
     return "forkserver"

@@ -412,6 +412,7 @@ def worker_threads() -> dict:
         "pools": {(p["user_api"], p["num_threads"]) for p in threadpool_info()},
         "solver": "sacflow.solver" in sys.modules,
         "profiler": __import__("dask").config.get("distributed.worker.profile.enabled"),
+        "frozen": __import__("gc").get_freeze_count(),
     }
 
 
@@ -429,6 +430,7 @@ def test_local_cluster_workers_are_single_threaded_and_preloaded():
         assert {n for api, n in worker["pools"] if api in ("blas", "openmp")} == {1}, worker
         if "forkserver" in multiprocessing.get_all_start_methods():
             assert worker["solver"], "forked from a server that imported the solver"
+            assert worker["frozen"] > 10_000, "the server froze its imported objects"
         assert worker["profiler"] is False, "the statistical profiler is off"
     after = {name: os.environ.get(name) for name in before}
     assert after == before, "this process's environment is left as it was"
@@ -456,8 +458,10 @@ def test_fork_server_preloads_plasticity_only_for_plastic_campaigns(folder, monk
     elastic_list, mixed_list = preloads
     assert set(campaign_module.WORKER_PRELOAD) <= set(elastic_list)
     assert not set(campaign_module.PLASTIC_PRELOAD) & set(elastic_list)
-    assert set(campaign_module.WORKER_PRELOAD + campaign_module.PLASTIC_PRELOAD) == set(mixed_list)
-    for module in campaign_module.PLASTIC_PRELOAD:  # the names are importable modules
+    plastic = campaign_module.WORKER_PRELOAD + campaign_module.PLASTIC_PRELOAD
+    assert set(plastic) | {campaign_module.FORK_SERVER_LAST} == set(mixed_list)
+    assert elastic_list[-1] == mixed_list[-1] == campaign_module.FORK_SERVER_LAST
+    for module in (*campaign_module.PLASTIC_PRELOAD, campaign_module.FORK_SERVER_LAST):
         assert importlib.util.find_spec(module) is not None, module
 
 
