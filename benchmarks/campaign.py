@@ -2,7 +2,7 @@
 
     python benchmarks/campaign.py [--cases 8] [--workers 2] [--nx 128] [--nz 16] [--increments 6]
 
-The default cases take a few seconds each (2.5-3 s on the 2-core development machine, like the
+The default cases take a few seconds each (2.2-2.6 s on the 2-core development machine, like the
 cases a campaign is for); ``serial_case_time_mean_fft1`` reports it. Both the serial runs and the
 campaign run exactly these cases.
 
