@@ -28,7 +28,7 @@ import time
 import traceback
 from collections import Counter
 from collections.abc import Callable, Iterator, Mapping, Sequence
-from contextlib import contextmanager
+from contextlib import contextmanager, nullcontext
 from dataclasses import asdict, dataclass, field, replace
 from datetime import UTC, datetime
 from pathlib import Path
@@ -55,7 +55,7 @@ from sacflow.config import (
 )
 from sacflow.errors import ConfigError, SacflowError
 from sacflow.malloc import MALLOC_ENV
-from sacflow.schema import FIELD_ERROR, Campaign, Case, Sweep
+from sacflow.schema import FIELD_ERROR, Campaign, Case, Elastic, Sweep
 
 __all__ = [
     "CampaignCase",
@@ -636,7 +636,8 @@ def run_campaign(
     manifest = _Manifest(campaign, cases, out_dir)
     pending = _skip_complete(cases, manifest)
     if pending and not scheduler:  # its imports overlap the rest, up to the workers' start
-        _start_fork_server(plastic=any(c.case.body.hardening.law != "elastic" for c in pending))
+        _start_fork_server(plastic=any(not isinstance(c.case.body.hardening, Elastic)
+                                       for c in pending))
     manifest.write()
     _say(
         f"{campaign.name}: {len(cases)} cases, {len(cases) - len(pending)} already complete, "
@@ -755,7 +756,8 @@ def _client(scheduler: str | None, workers: int | None, tasks: int) -> Iterator[
     }
     # For the cluster's whole life: a worker that died is started again the same way. Spawned
     # workers inherit this process's environment, forked ones the fork server's.
-    with dask.config.set(config), _environ(_worker_environ() if method == "spawn" else {}):
+    spawned = _worker_environ() if method == "spawn" else nullcontext()
+    with dask.config.set(config), spawned:
         cluster = LocalCluster(
             n_workers=n,
             threads_per_worker=1,
@@ -789,26 +791,21 @@ def _start_fork_server(plastic: bool = False) -> str:
         return "spawn"
     modules = WORKER_PRELOAD + (PLASTIC_PRELOAD if plastic else ()) + (FORK_SERVER_LAST,)
     forkserver.set_forkserver_preload(list(modules))
-    with _environ(_worker_environ()):
+    with _worker_environ():
         forkserver.ensure_running()  # returns once started; the imports go on in the server
     return "forkserver"
 
 
-def _worker_environ() -> dict[str, str | None]:
-    """Environment changes for the worker processes (None: unset)."""
-    return {**WORKER_ENV, **MALLOC_ENV}
-
-
 @contextmanager
-def _environ(changes: Mapping[str, str | None]) -> Iterator[None]:
-    """Apply ``changes`` to ``os.environ`` (None: unset) inside the block, then restore it."""
+def _worker_environ() -> Iterator[None]:
+    """``os.environ`` with :data:`WORKER_ENV` and the malloc settings inside the block only.
+
+    The processes started inside (the fork server, or spawned workers) inherit it.
+    """
+    changes = {**WORKER_ENV, **MALLOC_ENV}
     saved = {key: os.environ.get(key) for key in changes}
     try:
-        for key, value in changes.items():
-            if value is None:
-                os.environ.pop(key, None)
-            else:
-                os.environ[key] = value
+        os.environ.update(changes)
         yield
     finally:
         for key, value in saved.items():

@@ -7,8 +7,9 @@ fault). A case allocates and frees arrays of 1-50 MB every step, so a fresh proc
 working set in several times over during its first case, and pays it again for every array above
 the threshold in later ones. Measured on the 2-core development machine (a virtual machine, where
 a fault costs more than on bare metal), 128 × 128 × 16 elastic case, 6 increments: 100-150
-thousand page faults and 0.4-0.8 s of system time in a process's first case, 35-85 thousand in
-later ones; with the settings below 20 thousand, then under 3 thousand, and 0.2 s.
+thousand page faults and 0.4-0.8 s of system time in a process's first case, 35-85 thousand and
+0.25-0.5 s in later ones; with the settings about 20 thousand (0.2-0.6 s), then under 5 thousand
+(0.15-0.35 s).
 
 :data:`MALLOC_ENV` fixes the threshold at glibc's 64-bit maximum (blocks up to 32 MB come from
 the heap) and keeps up to 1 GB of freed heap for the next arrays instead of returning it to the

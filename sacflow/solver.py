@@ -218,7 +218,8 @@ class Simulation:
         # Pressure (embedded in the body grid at the window's place) -> stress on the body grid:
         # one operator serves every load position.
         self.pressure_stress_op = Convolution(
-            stresses, self.body_shape, self.body_shape, threads=self.threads, block=6
+            stresses, self.body_shape, self.body_shape, threads=self.threads,
+            block=6,  # one depth layer (six components) per inverse transform
         )
         self.eigen = None
         if self.plastic:  # elastic runs do without it (and without numba)

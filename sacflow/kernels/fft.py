@@ -456,6 +456,11 @@ class Convolution:
             else np.mod(np.arange(no) + o, length)
             for no, o, length in zip(self.out_shape, self.offset, self.padded, strict=True)
         )
+        window = self._out_window[1:]
+        if not all(isinstance(w, slice) for w in window):  # wraps around: index arrays
+            window = np.ix_(*(np.arange(w.start, w.stop) if isinstance(w, slice) else w
+                              for w in window))
+        self._out_index = tuple(window)  # of one output component, on the padded grid
         # Dedicated buffers: the forward input keeps its zero padding between calls. Pruned
         # transforms: the input fills the leading block; the output is the leading block when
         # the window does not wrap around and starts at index 0.
@@ -484,10 +489,6 @@ class Convolution:
         self._forward.real[self._in_window] = x.reshape((self.n_in, *self.in_shape))
         xs = self._forward.forward()
         out = np.empty((self.n_out, *self.out_shape))
-        window = self._out_window[1:]
-        if not all(isinstance(w, slice) for w in window):
-            window = np.ix_(*(np.arange(w.start, w.stop) if isinstance(w, slice) else w
-                              for w in window))
         for k0, k1 in self._blocks:
             acc = self._inverse.spectrum[: k1 - k0]
             np.multiply(self.spectra[k0:k1, 0], xs[0], out=acc)
@@ -496,7 +497,7 @@ class Convolution:
             if k1 - k0 < self.block:  # a last, shorter block: the rest of the batch is unused
                 self._inverse.spectrum[k1 - k0:] = 0.0
             real = self._inverse.inverse()
-            out[k0:k1] = real[(slice(0, k1 - k0), *window)]
+            out[k0:k1] = real[(slice(0, k1 - k0), *self._out_index)]
         if single_in and self.n_out == 1:
             return out[0]
         return out
