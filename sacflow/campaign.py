@@ -27,7 +27,7 @@ import sys
 import time
 import traceback
 from collections import Counter
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from contextlib import contextmanager, nullcontext
 from dataclasses import asdict, dataclass, field, replace
 from datetime import UTC, datetime
@@ -757,7 +757,10 @@ def _client(scheduler: str | None, workers: int | None, tasks: int) -> Iterator[
     # For the cluster's whole life: a worker that died is started again the same way. Spawned
     # workers inherit this process's environment, forked ones the fork server's.
     spawned = _worker_environ() if method == "spawn" else nullcontext()
-    with dask.config.set(config), spawned:
+    # Each nanny writes the thread settings of its worker's environment into this process's
+    # os.environ before starting the worker (distributed's "pre-spawn" variables), and leaves
+    # them there: a notebook's later subprocesses would run single-threaded BLAS.
+    with dask.config.set(config), spawned, _saved_environ(WORKER_ENV):
         cluster = LocalCluster(
             n_workers=n,
             threads_per_worker=1,
@@ -793,7 +796,24 @@ def _start_fork_server(plastic: bool = False) -> str:
     forkserver.set_forkserver_preload(list(modules))
     with _worker_environ():
         forkserver.ensure_running()  # returns once started; the imports go on in the server
+    _keep_preload()
     return "forkserver"
+
+
+def _keep_preload() -> None:
+    """Tell distributed that the fork server's preload list is set (by us) already.
+
+    Otherwise the first nanny to start a worker (``distributed.utils.get_mp_context``) imports
+    distributed's optional packages *in this process*, pandas among them, to replace the list
+    with its own: 0.4 s on the way to the workers' start, measured in the event loop of a
+    parent process that had not loaded pandas (which neither sacflow's runs nor its workers
+    need), and a fork server restarted later would not load sacflow. The flag is a private
+    module global of distributed (2024-2026); without it nothing changes.
+    """
+    import distributed.utils
+
+    if hasattr(distributed.utils, "_forkserver_preload_set"):
+        distributed.utils._forkserver_preload_set = True
 
 
 @contextmanager
@@ -803,9 +823,16 @@ def _worker_environ() -> Iterator[None]:
     The processes started inside (the fork server, or spawned workers) inherit it.
     """
     changes = {**WORKER_ENV, **MALLOC_ENV}
-    saved = {key: os.environ.get(key) for key in changes}
-    try:
+    with _saved_environ(changes):
         os.environ.update(changes)
+        yield
+
+
+@contextmanager
+def _saved_environ(keys: Iterable[str]) -> Iterator[None]:
+    """Give ``os.environ``'s ``keys`` back their values of the block's start when it ends."""
+    saved = {key: os.environ.get(key) for key in keys}
+    try:
         yield
     finally:
         for key, value in saved.items():

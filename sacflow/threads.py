@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import sys
 from collections.abc import Iterator
 
 from threadpoolctl import ThreadpoolController
@@ -20,11 +21,22 @@ from threadpoolctl import ThreadpoolController
 __all__ = ["single_threaded_blas"]
 
 
-@functools.lru_cache(maxsize=1)
 def _controller() -> ThreadpoolController:
-    """Controller over the BLAS libraries loaded when first asked (after the core's imports)."""
-    import scipy.linalg  # noqa: F401 - make sure SciPy's own BLAS is loaded and seen
+    """Controller over the BLAS libraries loaded now.
 
+    numpy's BLAS is loaded with numpy; SciPy's own BLAS with ``scipy.linalg``, which every
+    SciPy module that calls BLAS imports (the plastic solver's gmres, for one). The controller
+    is built again once, when ``scipy.linalg`` appears. It is not imported here: an elastic
+    run does not need it, and its import takes 0.19 s (with ``numpy.f2py`` and
+    ``charset_normalizer``, measured on the development machine), paid by the first case of
+    every process.
+    """
+    return _controller_for("scipy.linalg" in sys.modules)
+
+
+@functools.lru_cache(maxsize=2)
+def _controller_for(scipy_linalg_loaded: bool) -> ThreadpoolController:
+    """The controller built when ``scipy.linalg`` was (not) loaded: 2-4 ms, once each."""
     return ThreadpoolController()
 
 

@@ -420,7 +420,7 @@ def test_local_cluster_workers_are_single_threaded_and_preloaded():
     """One thread per library in each worker; the fork server imported the solver once."""
     before = {
         name: os.environ.get(name)
-        for name in (campaign_module.FFT_THREADS_ENV, *MALLOC_ENV)
+        for name in (campaign_module.FFT_THREADS_ENV, *campaign_module.WORKER_ENV, *MALLOC_ENV)
     }
     with campaign_module._client(None, 2, 2) as client:
         info = client.run(worker_threads)
@@ -434,6 +434,24 @@ def test_local_cluster_workers_are_single_threaded_and_preloaded():
         assert worker["profiler"] is False, "the statistical profiler is off"
     after = {name: os.environ.get(name) for name in before}
     assert after == before, "this process's environment is left as it was"
+
+
+def test_local_cluster_start_imports_no_pandas_here():
+    """distributed would import its optional packages (pandas) in this process to replace the
+    fork server's preload list; sacflow's cluster keeps its own list and does not."""
+    if "forkserver" not in multiprocessing.get_all_start_methods():
+        pytest.skip("no fork server on this platform")
+    code = (
+        "import sys\n"
+        "from sacflow.campaign import _client\n"
+        "if __name__ == '__main__':\n"
+        "    with _client(None, 1, 1) as client:\n"
+        "        assert client.submit(sum, [1, 2]).result() == 3\n"
+        "    print('pandas' in sys.modules, 'scipy.fft' in sys.modules)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True)
+    assert out.stdout.split() == ["False", "False"]
 
 
 def test_fork_server_preloads_plasticity_only_for_plastic_campaigns(folder, monkeypatch):

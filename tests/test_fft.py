@@ -5,7 +5,7 @@ import pytest
 import scipy.fft
 from numpy.testing import assert_allclose
 
-from sacflow.kernels.fft import RealFFT, RealToReal
+from sacflow.kernels.fft import RealFFT, RealToReal, next_regular
 from sacflow.kernels.pair_products import PAIRS, pair_products
 
 
@@ -81,14 +81,22 @@ def test_pair_products_equal_the_dense_six_by_six_products():
     assert not out[:, 0].any()  # only the planes asked for
 
 
-def test_pyfftw_is_imported_without_dask_array_which_stays_importable():
-    """pyfftw's optional dask interface (dask.array, xarray, pandas) is not loaded with it."""
+def test_pyfftw_is_imported_without_dask_array_and_scipy_fft_which_stay_importable():
+    """pyfftw's optional interfaces (dask.array, xarray, pandas; scipy.fft) are not loaded."""
     import subprocess
     import sys
 
     code = ("import sys, sacflow.kernels.fft as f\n"
-            "print(f.HAVE_PYFFTW, 'dask.array' in sys.modules, 'xarray' in sys.modules)\n"
-            "import dask.array\n"
-            "print(dask.array.ones(3).sum().compute())\n")
+            "print(f.HAVE_PYFFTW, *(m in sys.modules for m in\n"
+            "      ('dask.array', 'xarray', 'scipy.fft', 'scipy.fftpack')))\n"
+            "import dask.array, scipy.fftpack\n"
+            "print(dask.array.ones(3).sum().compute(), scipy.fftpack.dct([1.0, 1.0])[0])\n")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    assert out.stdout.split() == ["True", "False", "False", "3.0"]
+    assert out.stdout.split() == ["True", "False", "False", "False", "False", "3.0", "4.0"]
+
+
+def test_next_regular_equals_scipy_next_fast_len():
+    """The 5-smooth padding length is scipy's real-input fast length (computed independently)."""
+    lengths = [*range(0, 3000), 4097, 10**5 + 1, 2**20 + 1, 3**11 + 2, 5**8 - 1]
+    ours = [next_regular(n) for n in lengths]
+    assert ours == [scipy.fft.next_fast_len(max(n, 1), real=True) for n in lengths]
