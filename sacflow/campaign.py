@@ -51,10 +51,13 @@ from sacflow.config import (
     _strip,
     _suggest,
     apply_overrides,
+    list_index,
     read_file,
+    valid_indices,
 )
 from sacflow.errors import ConfigError, SacflowError
 from sacflow.malloc import MALLOC_ENV
+from sacflow.outdir import prepare_output_dir
 from sacflow.schema import FIELD_ERROR, Campaign, Case, Elastic, Sweep
 
 __all__ = [
@@ -90,6 +93,19 @@ MAX_NAME = 120
 WORKER_DIED = (
     "the worker process died running this case (out of memory, or a crash in compiled code); "
     "see the dask worker logs"
+)
+#: Transport schemes of a dask scheduler address (``--scheduler``); none means tcp.
+SCHEDULER_SCHEMES = ("tcp", "tls", "ws", "wss", "ucx")
+#: Largest TCP port number.
+MAX_PORT = 65535
+#: The expected form of ``--scheduler``, printed with every problem.
+SCHEDULER_FORM = (
+    "expected tcp://host:8786 (the address `dask scheduler` prints; scheme one of "
+    + ", ".join(SCHEDULER_SCHEMES) + ", port 1..65535)"
+)
+_SCHEDULER_ADDRESS = re.compile(
+    r"(?:(?:" + "|".join(SCHEDULER_SCHEMES) + r")://)?"
+    r"(?:\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9_.-]+):(?P<port>[0-9]{1,5})"
 )
 Status = Literal["pending", "done", "failed", "skipped"]
 SimulationFactory = Callable[[Case], Any]
@@ -321,7 +337,8 @@ def _path_problem(key: str) -> str | None:
             elif get_origin(tp) in (list, tuple):
                 variable = get_origin(tp) is list or tp.__args__[-1] is Ellipsis
                 sizes.append(None if variable else len(tp.__args__))
-                if part.isdigit() and (item := _item_type(tp, int(part))) is not None:
+                index = list_index(part)
+                if index is not None and (item := _item_type(tp, index)) is not None:
                     found.append(item)
         if found:
             options = found
@@ -329,9 +346,12 @@ def _path_problem(key: str) -> str | None:
             return f"{where} has no field {part!r}" + _suggest(part, fields)
         elif sizes:
             fixed = [n for n in sizes if n is not None]
-            if part.isdigit() and fixed:
-                return f"{where} has {max(fixed)} items; use an index 0..{max(fixed) - 1}"
-            return f"{where} is a list; use an index, e.g. {where}.0"
+            if list_index(part) is not None and fixed:
+                return f"index {part} is out of range for {where}; {valid_indices(max(fixed))}"
+            return (
+                f"{part!r} is not a list index ({where} is a list, indexed by whole numbers "
+                f"from 0; negative indices are not supported); use e.g. {where}.0"
+            )
         else:
             return f"{where} is a value, not a table; remove .{'.'.join(keys[depth:])}"
     return None
@@ -437,14 +457,18 @@ def _campaign_problem(err: Mapping[str, Any]) -> str:
 
 # --------------------------------------------------------------------------- the dask task
 def run_one(
-    case_json: str, out_dir: str, simulation_factory: SimulationFactory | None = None
+    case_json: str,
+    out_dir: str,
+    simulation_factory: SimulationFactory | None = None,
+    overwrite: bool = False,
 ) -> dict[str, Any]:
     """Dask task: rebuild the case from its JSON and run it into ``out_dir``.
 
     Never raises for a failing case: returns ``status`` (``done`` or ``failed``), ``error``,
     ``traceback`` (unexpected errors only), ``wall_time``, ``cpu_time`` (of the worker process:
     well below the wall time when the machine is oversubscribed), ``steps``, ``resumed_steps``.
-    ``SACFLOW_FFT_THREADS`` defaults to 1 in the worker (one case per core).
+    ``SACFLOW_FFT_THREADS`` defaults to 1 in the worker (one case per core). A run of another
+    case stored under the case's name is replaced only with ``overwrite``.
     """
     os.environ.setdefault(FFT_THREADS_ENV, "1")
     start, cpu_start = time.perf_counter(), time.process_time()
@@ -453,7 +477,8 @@ def run_one(
 
         case = Case.model_validate_json(case_json)
         summary = run_case(
-            case, out_dir, progress=False, simulation_factory=simulation_factory, resume=True
+            case, out_dir, progress=False, simulation_factory=simulation_factory, resume=True,
+            overwrite=overwrite,
         )
     except Exception as exc:  # the case failed; the campaign goes on
         return {
@@ -598,6 +623,7 @@ def run_campaign(
     scheduler: str | None = None,
     progress: bool = True,
     simulation_factory: SimulationFactory | None = None,
+    overwrite: bool = False,
 ) -> CampaignSummary:
     """Run every case of ``campaign`` with dask, one task and one file per case.
 
@@ -617,6 +643,9 @@ def run_campaign(
     simulation_factory : callable, optional
         ``factory(case) -> simulation`` passed to :func:`sacflow.runner.run_case`; it must be
         importable by the workers (a module-level function).
+    overwrite : bool
+        Replace runs of other cases stored under the cases' names. Without it such a case is
+        not run and fails with a message naming the file, both ids and the fields that differ.
 
     Returns
     -------
@@ -630,11 +659,12 @@ def run_campaign(
         raise ConfigError(
             "--workers sizes the local cluster; use a positive number and no --scheduler"
         )
+    if scheduler:
+        check_scheduler_address(scheduler)
     cases = expand_campaign(campaign)
-    out_dir = Path(out_dir).resolve()
-    out_dir.mkdir(parents=True, exist_ok=True)
+    out_dir = prepare_output_dir(out_dir).resolve()
     manifest = _Manifest(campaign, cases, out_dir)
-    pending = _skip_complete(cases, manifest)
+    pending = _skip_complete(cases, manifest, overwrite)
     if pending and not scheduler:  # its imports overlap the rest, up to the workers' start
         _start_fork_server(plastic=any(not isinstance(c.case.body.hardening, Elastic)
                                        for c in pending))
@@ -649,7 +679,8 @@ def run_campaign(
             n_workers = len(client.nthreads())
             dashboard = _dashboard(client, local=not scheduler)
             _say(f"dask: {client.scheduler.address}, {n_workers} workers, dashboard {dashboard}")
-            _run_pending(client, pending, out_dir, manifest, progress, simulation_factory)
+            _run_pending(client, pending, out_dir, manifest, progress, simulation_factory,
+                         overwrite)
     return CampaignSummary(
         name=campaign.name,
         out_dir=out_dir,
@@ -661,15 +692,24 @@ def run_campaign(
     )
 
 
-def _skip_complete(cases: list[CampaignCase], manifest: _Manifest) -> list[CampaignCase]:
-    """Mark the cases whose run file is complete as skipped; return the others."""
-    from sacflow.store import completed_steps, is_complete  # xarray only when running
+def _skip_complete(
+    cases: list[CampaignCase], manifest: _Manifest, overwrite: bool = False
+) -> list[CampaignCase]:
+    """Mark the cases whose run file is complete as skipped; return the others to run.
+
+    A case whose name holds a run of another case (finished or interrupted) is marked failed
+    with the message of :func:`sacflow.store.replace_message`, unless ``overwrite``.
+    """
+    from sacflow.store import replace_message, run_info
 
     pending = []
     for c in cases:
-        path = manifest.records[c.index].path
-        if is_complete(path, c.case_id):
-            manifest.update(c.index, status="skipped", steps=completed_steps(path))
+        info = run_info(manifest.records[c.index].path)
+        same = info.exists and info.matches(c.case_id)
+        if info.complete and same:
+            manifest.update(c.index, status="skipped", steps=info.steps)
+        elif info.exists and not same and not info.damaged_only and not overwrite:
+            manifest.update(c.index, status="failed", error=replace_message(info, c.case))
         else:
             pending.append(c)
     return pending
@@ -682,6 +722,7 @@ def _run_pending(
     manifest: _Manifest,
     progress: bool,
     simulation_factory: SimulationFactory | None,
+    overwrite: bool = False,
 ) -> None:
     from distributed import as_completed
 
@@ -690,7 +731,8 @@ def _run_pending(
     ordered = sorted(pending, key=_estimated_cost, reverse=True)
     futures = {
         client.submit(
-            run_one, c.case.canonical_json(), str(out_dir), simulation_factory, pure=False
+            run_one, c.case.canonical_json(), str(out_dir), simulation_factory, overwrite,
+            pure=False,
         ): c
         for c in ordered
     }
@@ -720,6 +762,25 @@ def _estimated_cost(c: CampaignCase) -> int:
     return grid.nx * grid.ny * grid.nz * steps
 
 
+def check_scheduler_address(address: str) -> None:
+    """Check that ``address`` has the form of a dask scheduler address, before any work.
+
+    Accepted: ``[scheme://]host:port`` with scheme one of :data:`SCHEDULER_SCHEMES` (dask's
+    default is tcp) and a port 1..65535, e.g. ``tcp://10.0.0.1:8786`` or ``localhost:8786``.
+    Otherwise dask fails with a ``ValueError`` deep inside its address parsing.
+
+    Raises
+    ------
+    ConfigError
+        Naming ``--scheduler``, the value and the expected form.
+    """
+    match = _SCHEDULER_ADDRESS.fullmatch(address.strip())
+    if match is None or not 1 <= int(match["port"]) <= MAX_PORT:
+        raise ConfigError(
+            f"--scheduler {address!r} is not a dask scheduler address; {SCHEDULER_FORM}"
+        )
+
+
 @contextmanager
 def _client(scheduler: str | None, workers: int | None, tasks: int) -> Iterator[Any]:
     """A dask client: on ``scheduler``, or on a new local cluster closed at the end."""
@@ -728,6 +789,8 @@ def _client(scheduler: str | None, workers: int | None, tasks: int) -> Iterator[
 
         try:
             client = Client(scheduler, timeout="10s")
+        except ValueError as exc:  # an address check_scheduler_address let through
+            raise ConfigError(f"--scheduler {scheduler!r}: {exc}; {SCHEDULER_FORM}") from None
         except (OSError, TimeoutError) as exc:
             raise SacflowError(
                 f"cannot connect to the dask scheduler at {scheduler} ({exc}); start one with "

@@ -2,6 +2,8 @@
 
 A thin layer over :mod:`sacflow.config` and :mod:`sacflow.runner`. Mistakes in a case are
 printed as ``error: <message>`` with exit code 2, failed runs with exit code 1; never a traceback.
+Before any work, the ``SACFLOW_*`` environment variables are checked (:mod:`sacflow.environment`)
+and the ``--out`` folder is checked for writing (:mod:`sacflow.outdir`).
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``sacflow`` command; returns the exit code."""
     args = _parser().parse_args(argv)
     try:
+        _check_before_work(args)
         return args.handler(args)
     except ConfigError as exc:
         _error(exc)
@@ -40,6 +43,28 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_INTERRUPTED
 
 
+#: Commands that compute (or check a case for computing): the SACFLOW_* variables are read
+#: before they start.
+_ENVIRONMENT_COMMANDS = ("run", "campaign", "validate")
+
+
+def _check_before_work(args: argparse.Namespace) -> None:
+    """Check the environment variables and the ``--out`` folder before any work.
+
+    A bad ``SACFLOW_*`` value or an ``--out`` that is a file, lies under a file or cannot be
+    created or written in is a :class:`ConfigError` naming it (:mod:`sacflow.environment`,
+    :mod:`sacflow.outdir`), not a failure after the first cases have run. Nothing is created
+    here: the folder is made when the first file is written.
+    """
+    from sacflow.environment import check_environment
+    from sacflow.outdir import check_output_dir
+
+    if args.command in _ENVIRONMENT_COMMANDS:
+        check_environment()
+    if isinstance(getattr(args, "out", None), Path):
+        check_output_dir(args.out)
+
+
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="sacflow", description="Semi-analytical elastic-plastic contact runs."
@@ -50,7 +75,14 @@ def _parser() -> argparse.ArgumentParser:
     _add_case_arguments(run)
     run.add_argument("--out", type=Path, default=Path("runs"), help="output folder (runs/)")
     run.add_argument("--no-progress", action="store_true", help="no progress bar")
-    run.add_argument("--restart", action="store_true", help="ignore stored steps, start afresh")
+    run.add_argument(
+        "--restart", action="store_true",
+        help="recompute this case from its first step, replacing its stored steps",
+    )  # fmt: skip
+    run.add_argument(
+        "--overwrite", action="store_true",
+        help="replace a run of another case stored under the same name (never done otherwise)",
+    )  # fmt: skip
     run.set_defaults(handler=_run)
 
     validate = commands.add_parser("validate", help="check cases and print their Hertz scales")
@@ -67,11 +99,23 @@ def _parser() -> argparse.ArgumentParser:
         help="override a field of the base case, e.g. --set grid.nz=8",
     )  # fmt: skip
     campaign.add_argument("--no-progress", action="store_true", help="no progress bar")
+    campaign.add_argument(
+        "--overwrite", action="store_true",
+        help="replace runs of other cases stored under a case's name (never done otherwise)",
+    )  # fmt: skip
     campaign.set_defaults(handler=_campaign)
+
+    info = commands.add_parser("info", help="say what is stored in run files (one look each)")
+    info.add_argument("runs", nargs="+", type=Path, metavar="RUN", help="run file(s) <name>.nc")
+    info.set_defaults(handler=_info)
 
     add_compare_command(commands)  # sacflow compare STAGE RUN.nc ... (sacflow.compare)
 
     schema = commands.add_parser("schema", help="print the JSON schema of a case")
+    schema.add_argument(
+        "--markdown", action="store_true",
+        help="print the reference page of the case format instead (docs/case-format.md)",
+    )  # fmt: skip
     schema.set_defaults(handler=_schema)
     return parser
 
@@ -110,7 +154,8 @@ def _run(args: argparse.Namespace) -> int:
     for case in _load_all(args):
         try:
             summary = run_case(
-                case, args.out, progress=not args.no_progress, resume=not args.restart
+                case, args.out, progress=not args.no_progress, resume=not args.restart,
+                overwrite=args.overwrite,
             )
         except SacflowError as exc:
             _error(f"{case.name}: {exc}")
@@ -125,7 +170,8 @@ def _campaign(args: argparse.Namespace) -> int:
 
     campaign = load_campaign(args.campaign, args.overrides)
     summary = run_campaign(
-        campaign, args.out, args.workers, args.scheduler, progress=not args.no_progress
+        campaign, args.out, args.workers, args.scheduler, progress=not args.no_progress,
+        overwrite=args.overwrite,
     )
     print(summary.table())
     for record in summary.failed:
@@ -134,16 +180,43 @@ def _campaign(args: argparse.Namespace) -> int:
 
 
 def _validate(args: argparse.Namespace) -> int:
+    from sacflow.memory import check_memory
+
+    status = 0
     for case in _load_all(args):
+        try:
+            memory = check_memory(case)  # a grid too large for this machine is refused here
+        except SacflowError as exc:
+            _error(f"{case.name}: {exc}")
+            status = EXIT_RUN_FAILED
+            continue
         hertz = case.hertz()
         print(
             f"OK {case.name} ({case.case_id}): a = {hertz.a * 1e6:.3f} µm, "
-            f"p0 = {hertz.p0 / 1e9:.3f} GPa, window {case.grid.nx} x {case.grid.ny} cells"
+            f"p0 = {hertz.p0 / 1e9:.3f} GPa, window {case.grid.nx} x {case.grid.ny} cells, "
+            f"memory {memory.short()}"
         )
-    return 0
+    return status
+
+
+def _info(args: argparse.Namespace) -> int:
+    from sacflow.store import run_info
+
+    status = 0
+    for path in args.runs:
+        info = run_info(path)
+        print(info.report())
+        if not (info.complete or info.parts):
+            status = EXIT_RUN_FAILED
+    return status
 
 
 def _schema(args: argparse.Namespace) -> int:
+    if args.markdown:
+        from sacflow.schema_doc import case_format_markdown
+
+        print(case_format_markdown(), end="")
+        return 0
     print(json.dumps(case_json_schema(), indent=2, ensure_ascii=False))
     return 0
 

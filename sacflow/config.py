@@ -30,6 +30,8 @@ __all__ = ["apply_overrides", "case_from_dict", "format_validation_error", "load
 
 #: At most this many problems are listed; the rest are counted.
 MAX_PROBLEMS = 15
+#: A list index in a dotted path: ASCII digits only (no sign).
+_INDEX = re.compile(r"[0-9]+")
 _EXPECTED = {
     "float": "a number",
     "int": "an integer",
@@ -98,9 +100,9 @@ def apply_overrides(data: Mapping[str, Any], overrides: Iterable[str]) -> dict[s
     """Return a copy of ``data`` with ``dotted.key=value`` overrides applied.
 
     The value is parsed as a TOML literal (``64``, ``0.19``, ``"linear"``, ``[1e-5, 1e-5]``,
-    ``inf``); anything else is kept as a bare string. Integer keys index lists
-    (``load_path.0.to=0.19``; the index just past the end appends). Missing intermediate
-    tables are created.
+    ``inf``); anything else is kept as a bare string. Whole-number keys index lists from 0
+    (``load_path.0.to=0.19``; the index just past the end appends); negative or non-integer
+    indices are rejected. Missing intermediate tables are created.
     """
     result = copy.deepcopy(dict(data))
     for item in overrides:
@@ -190,12 +192,7 @@ def _set_dotted(data: dict[str, Any], keys: list[str], value: Any, item: str) ->
         where = ".".join(keys[:depth]) or "the case"
         last = depth == len(keys) - 1
         if isinstance(node, list):
-            if not key.lstrip("-").isdigit() or not -len(node) <= int(key) <= len(node):
-                raise ConfigError(
-                    f"--set {item!r}: {where} is a list of {len(node)} items; "
-                    f"use an index 0..{len(node)}"
-                )
-            key_or_index: Any = int(key)
+            key_or_index: Any = _list_index(key, len(node), where, item)
             if key_or_index == len(node):
                 node.append({})
         elif isinstance(node, dict):
@@ -208,6 +205,39 @@ def _set_dotted(data: dict[str, Any], keys: list[str], value: Any, item: str) ->
             node[key_or_index] = value
         else:
             node = node[key_or_index]
+
+
+def list_index(key: str) -> int | None:
+    """The list index a dotted-path part stands for: ASCII digits only (``0``, ``12``), else None.
+
+    Negative (``-1``), signed (``+1``), fractional (``1.5``) and non-ASCII digits (``²``) are
+    not indices: a ``--set`` or sweep key counts items from the start, like the error messages.
+    """
+    return int(key) if _INDEX.fullmatch(key) else None
+
+
+def valid_indices(size: int) -> str:
+    """The valid indices of a list of ``size`` items, in words (for messages)."""
+    if size == 0:
+        return "it is empty: use index 0 to add a first item"
+    last = "0" if size == 1 else f"0..{size - 1}"
+    item = "item" if size == 1 else "items"
+    return f"it has {size} {item}: use index {last}, or {size} to add an item at the end"
+
+
+def _list_index(key: str, size: int, where: str, item: str) -> int:
+    """The index ``key`` into the list ``where`` of ``size`` items (appending allowed)."""
+    index = list_index(key)
+    if index is None:
+        raise ConfigError(
+            f"--set {item!r}: {key!r} is not a list index ({where} is a list, indexed by whole "
+            f"numbers from 0; negative indices are not supported); {valid_indices(size)}"
+        )
+    if index > size:
+        raise ConfigError(
+            f"--set {item!r}: index {index} is out of range for {where}; {valid_indices(size)}"
+        )
+    return index
 
 
 # --------------------------------------------------------------------------- error messages

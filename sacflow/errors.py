@@ -11,7 +11,9 @@ __all__ = [
     "BoxTooShallowError",
     "ConfigError",
     "ConvergenceError",
+    "EnvironmentVariableError",
     "GridTooLargeError",
+    "OutputPathError",
     "SacflowError",
 ]
 
@@ -99,3 +101,15 @@ class BoxTooShallowError(SacflowError):
 
     def __reduce__(self):  # picklable for dask workers
         return (type(self), (self.step, self.depth, self.nz, self.new_depth, self.new_nz))
+
+
+class EnvironmentVariableError(ConfigError):
+    """A ``SACFLOW_*`` environment variable has a value sacflow cannot use.
+
+    Its message names the variable, the value found and the accepted values (see
+    :mod:`sacflow.environment`).
+    """
+
+
+class OutputPathError(ConfigError):
+    """An output folder (``--out``) is a file, lies under a file, or cannot be written."""

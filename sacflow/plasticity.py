@@ -22,9 +22,12 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
+from pydantic import BaseModel, ValidationError
 
+from sacflow import schema
 from sacflow.reference import von_mises  # one implementation, re-exported here
 
 __all__ = ["DepthScaled", "Elastic", "HardeningLaw", "Linear", "PerfectlyPlastic",
@@ -79,21 +82,54 @@ class _Joint(HardeningLaw):
         return self.yield_and_slope(eqps, depth)[1]
 
 
+#: Scale s of εp in the Swift law σ_Y = B (C + s εp)^n, per ``strain_unit``.
+STRAIN_SCALES = {"microstrain": 1e6, "strain": 1.0}
+
+
+def _validated(model: type[BaseModel], fields: dict[str, Any]) -> Any:
+    """``fields`` validated by the schema ``model``: the one place of a law's rules.
+
+    Raises
+    ------
+    ValueError
+        Naming the law, each offending field, what is wrong and the value found.
+    """
+    try:
+        return model.model_validate(fields)
+    except ValidationError as exc:
+        what = f"hardening law {fields['law']!r}" if "law" in fields else model.__name__
+        problems = []
+        for err in exc.errors(include_url=False):
+            loc = [str(k) for k in err["loc"]]
+            value = err.get("input")
+            if err["type"] == schema.FIELD_ERROR:
+                loc.append(err["ctx"]["field"])
+                value = fields.get(loc[-1])
+            got = "" if err["type"] == "missing" else f"; got {value!r:.60}"
+            problems.append(f"field {'.'.join(loc)!r}: {err['msg']}{got}")
+        raise ValueError(f"{what}: " + "; ".join(problems)) from None
+
+
+def _floats(values) -> Any:
+    """Array-likes as (nested) lists for validation; anything else as it is."""
+    try:
+        return np.asarray(values, dtype=float).tolist()
+    except (TypeError, ValueError):
+        return values
+
+
 class Swift(_Joint):
     """Swift law σ_Y = B (C + s p)^n, s = 1e6 for ``strain_unit="microstrain"`` (seed eq. (3.1)).
 
     The seed's bearing steel (B = 1240 MPa, C = 30, n = 0.085, micro-strain) has
-    σ_Y0 = B C^n ≈ 1655.7 MPa. C = 0 (σ_Y0 = 0, infinite initial slope) is rejected.
+    σ_Y0 = B C^n ≈ 1655.7 MPa. The arguments obey :class:`sacflow.schema.Swift` (C > 0,
+    0 < n < 1, B C^n a finite positive stress); a ``ValueError`` names the field otherwise.
     """
 
     def __init__(self, B: float, C: float, n: float, strain_unit: str = "microstrain"):
-        scales = {"microstrain": 1e6, "strain": 1.0}
-        if strain_unit not in scales:
-            raise ValueError(f"Swift strain_unit must be one of {sorted(scales)}, "
-                             f"got {strain_unit!r}")
-        if not (B > 0 and C > 0 and n >= 0):
-            raise ValueError(f"Swift needs B > 0, C > 0, n >= 0; got B={B}, C={C}, n={n}")
-        self.B, self.C, self.n, self.scale = float(B), float(C), float(n), scales[strain_unit]
+        law = _validated(schema.Swift, dict(law="swift", B=B, C=C, n=n, strain_unit=strain_unit))
+        self.B, self.C, self.n = law.B, law.C, law.n
+        self.scale = STRAIN_SCALES[law.strain_unit]
 
     def yield_stress(self, eqps, depth=None):
         return self.B * (self.C + self.scale * np.asarray(eqps, dtype=float)) ** self.n
@@ -105,13 +141,12 @@ class Swift(_Joint):
 
 
 class Linear(HardeningLaw):
-    """Linear hardening σ_Y = σ_Y0 + H p, H >= 0."""
+    """Linear hardening σ_Y = σ_Y0 + H p (rules of :class:`sacflow.schema.Linear`: H >= 0)."""
 
     def __init__(self, yield_stress: float, modulus: float):
-        if not (yield_stress > 0 and modulus >= 0):
-            raise ValueError(f"Linear needs yield_stress > 0 and modulus >= 0; got "
-                             f"{yield_stress}, {modulus}")
-        self.sigma0, self.modulus = float(yield_stress), float(modulus)
+        law = _validated(schema.Linear,
+                         dict(law="linear", yield_stress=yield_stress, modulus=modulus))
+        self.sigma0, self.modulus = law.yield_stress, law.modulus
 
     def yield_stress(self, eqps, depth=None):
         return self.sigma0 + self.modulus * np.asarray(eqps, dtype=float)
@@ -121,10 +156,12 @@ class Linear(HardeningLaw):
 
 
 class PerfectlyPlastic(Linear):
-    """Perfect plasticity σ_Y = σ_Y0."""
+    """Perfect plasticity σ_Y = σ_Y0 (rules of :class:`sacflow.schema.PerfectlyPlastic`)."""
 
     def __init__(self, yield_stress: float):
-        super().__init__(yield_stress, 0.0)
+        law = _validated(schema.PerfectlyPlastic,
+                         dict(law="perfectly_plastic", yield_stress=yield_stress))
+        self.sigma0, self.modulus = law.yield_stress, 0.0
 
 
 class Elastic(HardeningLaw):
@@ -140,35 +177,31 @@ class Elastic(HardeningLaw):
 class Tabular(_Joint):
     """Piecewise-linear measured curve through (``plastic_strain``, ``stress``) points.
 
-    ``plastic_strain`` starts at 0 and increases strictly; ``stress`` is positive and
-    nondecreasing. Beyond the last point the curve continues with the last segment's slope
-    (``extrapolation="linear"``, default) or stays flat (``"flat"``). At kinks ``slope`` returns
-    the slope of the segment on the right.
+    The points obey :class:`sacflow.schema.Tabular` (strains from 0, strictly increasing;
+    stresses positive and non-decreasing). Beyond the last point the curve stays at the last
+    stress with slope 0 (``beyond_last="constant"``, default) or continues with the last
+    segment's slope (``"extrapolate"``); the radial return's hardening modulus follows. At kinks
+    ``slope`` returns the slope of the segment on the right.
     """
 
-    def __init__(self, plastic_strain, stress, extrapolation: str = "linear"):
-        e, s = np.asarray(plastic_strain, dtype=float), np.asarray(stress, dtype=float)
-        if e.ndim != 1 or e.shape != s.shape or e.size < 2:
-            raise ValueError("Tabular plastic_strain and stress must be 1-D of equal length >= 2")
-        if e[0] != 0.0 or np.any(np.diff(e) <= 0):
-            raise ValueError("Tabular plastic_strain must start at 0 and increase strictly")
-        if s[0] <= 0 or np.any(np.diff(s) < 0):
-            raise ValueError("Tabular stress must be positive and nondecreasing (no softening)")
-        if extrapolation not in ("linear", "flat"):
-            raise ValueError("Tabular extrapolation must be 'linear' or 'flat', "
-                             f"got {extrapolation!r}")
-        self.strain, self.stress, self.extrapolation = e, s, extrapolation
-        self.slopes = np.diff(s) / np.diff(e)
+    def __init__(self, plastic_strain, stress, beyond_last: str = "constant"):
+        law = _validated(schema.Tabular, dict(law="tabular", plastic_strain=_floats(plastic_strain),
+                                              stress=_floats(stress), beyond_last=beyond_last))
+        self.strain = np.array(law.plastic_strain)
+        self.stress = np.array(law.stress)
+        self.beyond_last = law.beyond_last
+        self.slopes = np.diff(self.stress) / np.diff(self.strain)
 
     def yield_and_slope(self, eqps, depth=None):
         p = np.asarray(eqps, dtype=float)
-        if self.extrapolation == "flat":
+        constant = self.beyond_last == "constant"
+        if constant:
             beyond = p >= self.strain[-1]
             p = np.minimum(p, self.strain[-1])
         i = np.clip(np.searchsorted(self.strain, p, side="right") - 1, 0, self.slopes.size - 1)
         k = self.slopes[i]
         y = self.stress[i] + k * (p - self.strain[i])
-        if self.extrapolation == "flat":
+        if constant:
             k = np.where(beyond, 0.0, k)
         return y, k
 
@@ -177,15 +210,13 @@ class DepthScaled(_Joint):
     """σ_Y(p, x3) = factor(x3) · law(p): factor piecewise linear in depth, constant beyond ends.
 
     For surface-hardened steels (the seed's stated next step); ``depth`` is then required.
+    ``depth`` and ``factor`` obey :class:`sacflow.schema.DepthProfile`.
     """
 
     def __init__(self, law: HardeningLaw, depth, factor):
-        d, f = np.asarray(depth, dtype=float), np.asarray(factor, dtype=float)
-        if d.ndim != 1 or d.shape != f.shape or d.size < 1:
-            raise ValueError("depth_profile depth and factor must be 1-D of equal length >= 1")
-        if np.any(np.diff(d) <= 0) or np.any(f <= 0):
-            raise ValueError("depth_profile depth must increase strictly and factor be > 0")
-        self.law, self.depth, self.factor = law, d, f
+        profile = _validated(schema.DepthProfile, dict(depth=_floats(depth),
+                                                       factor=_floats(factor)))
+        self.law, self.depth, self.factor = law, np.array(profile.depth), np.array(profile.factor)
 
     def scale(self, depth) -> np.ndarray:
         """Return the factor at ``depth`` [m]."""
@@ -203,35 +234,63 @@ def _field(obj, name, default=None):
     return obj.get(name, default) if isinstance(obj, dict) else getattr(obj, name, default)
 
 
+#: Schema model of each ``law``.
+_SCHEMA_LAWS: dict[str, type[BaseModel]] = {
+    "elastic": schema.Elastic,
+    "swift": schema.Swift,
+    "linear": schema.Linear,
+    "perfectly_plastic": schema.PerfectlyPlastic,
+    "tabular": schema.Tabular,
+}
+
+
+def _schema_law(obj) -> Any:
+    """``obj`` as a validated schema hardening model (it may be one already)."""
+    if isinstance(obj, tuple(_SCHEMA_LAWS.values())):
+        return obj
+    kind = _field(obj, "law")
+    if kind not in _SCHEMA_LAWS:
+        raise ValueError(f"hardening law must be one of {list(_SCHEMA_LAWS)}, got {kind!r}")
+    model = _SCHEMA_LAWS[kind]
+    data = {name: _field(obj, name) for name in model.model_fields}
+    data = {name: value for name, value in data.items() if value is not None}
+    if "depth_profile" in data and not isinstance(data["depth_profile"], BaseModel):
+        profile = data["depth_profile"]
+        data["depth_profile"] = {k: _floats(_field(profile, k)) for k in ("depth", "factor")}
+    for name in ("plastic_strain", "stress"):
+        if name in data:
+            data[name] = _floats(data[name])
+    return _validated(model, data)
+
+
 def hardening_from_schema(obj) -> HardeningLaw:
-    """Build a law from any object (pydantic model, SimpleNamespace, dict) with a ``law`` field.
+    """Build a law from a schema model or any object (SimpleNamespace, dict) with a ``law`` field.
 
     ``law`` in {"elastic", "swift", "linear", "perfectly_plastic", "tabular"} with the fields
-    B, C, n, strain_unit / yield_stress, modulus / yield_stress / plastic_strain, stress; an
-    optional ``depth_profile`` (``depth``, ``factor``) wraps the law in :class:`DepthScaled`.
+    of :mod:`sacflow.schema`'s model of that law (B, C, n, strain_unit / yield_stress, modulus
+    / yield_stress / plastic_strain, stress, beyond_last); an optional ``depth_profile``
+    (``depth``, ``factor``) wraps the law in :class:`DepthScaled`. Anything but a schema model
+    is validated by that model first: the schema is the one source of the laws' rules, and
+    what it accepts builds here and runs in :func:`radial_return`.
+
+    Raises
+    ------
+    ValueError
+        Naming the law and the offending field.
     """
-    kind = _field(obj, "law")
-
-    def req(name):
-        if (value := _field(obj, name)) is None:
-            raise ValueError(f"hardening law {kind!r} needs the field {name!r}")
-        return value
-
+    law = _schema_law(obj)
     builders = {
         "elastic": Elastic,
-        "swift": lambda: Swift(req("B"), req("C"), req("n"),
-                               _field(obj, "strain_unit") or "microstrain"),
-        "linear": lambda: Linear(req("yield_stress"), req("modulus")),
-        "perfectly_plastic": lambda: PerfectlyPlastic(req("yield_stress")),
-        "tabular": lambda: Tabular(req("plastic_strain"), req("stress")),
+        "swift": lambda: Swift(law.B, law.C, law.n, law.strain_unit),
+        "linear": lambda: Linear(law.yield_stress, law.modulus),
+        "perfectly_plastic": lambda: PerfectlyPlastic(law.yield_stress),
+        "tabular": lambda: Tabular(law.plastic_strain, law.stress, law.beyond_last),
     }
-    if kind not in builders:
-        raise ValueError(f"hardening law must be one of {list(builders)}, got {kind!r}")
-    law = builders[kind]()
-    profile = _field(obj, "depth_profile")
-    if profile is not None and kind != "elastic":
-        law = DepthScaled(law, _field(profile, "depth"), _field(profile, "factor"))
-    return law
+    built = builders[law.law]()
+    profile = getattr(law, "depth_profile", None)
+    if profile is not None:
+        built = DepthScaled(built, profile.depth, profile.factor)
+    return built
 
 
 class ReturnMappingError(RuntimeError):
@@ -271,7 +330,8 @@ def radial_return(trial_stress, eqps, law: HardeningLaw, mu: float, depth=None,
     §3.3, Box 3.1). Points with q_tr = sqrt(3/2 s:s) > σ_Y(p) solve
     ``q_tr − 3μ Δp − σ_Y(p + Δp) = 0`` by vectorised Newton kept inside the bracket
     ``0 < Δp <= (q_tr − σ_Y(p))/(3μ)`` (bisection when a step leaves it) until the residual is
-    below ``tol`` σ_Y (or its rounding floor 4ε q_tr), then ``Δεp = 3/2 Δp s/q_tr``. The stress
+    below ``tol`` σ_Y (or its rounding floor 4ε max(q_tr, H (p + Δp)), H = σ_Y'), then
+    ``Δεp = 3/2 Δp s/q_tr``. The stress
     σ = σ_tr − 2μ Δεp is assembled as mean(σ_tr) I + s σ_Y(p + Δp)/q_tr, so that
     von_mises(σ) = σ_Y(p + Δp) to round-off. Elastic points are returned bit for bit.
 
@@ -325,7 +385,10 @@ def radial_return(trial_stress, eqps, law: HardeningLaw, mu: float, depth=None,
         r = q - three_mu * x - y
         pos = r > 0.0
         lo, hi = np.where(pos, x, lo), np.where(pos, hi, x)
-        done = (np.abs(r) <= np.maximum(tol * y, eps4 * q)) | (hi - lo <= eps4 * x)
+        # rounding floor of r: of q_tr, and of σ_Y(p + Δp) through the rounding of p + Δp (a
+        # steep segment of a tabular curve, H ~ 1e14 Pa, makes it the larger one)
+        floor = eps4 * np.maximum(q, h * (p0 + x))
+        done = (np.abs(r) <= np.maximum(tol * y, floor)) | (hi - lo <= eps4 * x)
         if done.any():  # a last free Newton correction, kept if inside the bracket
             xd, xn = x[done], x[done] + r[done] / (three_mu + h[done])
             dp_all[act[done]] = np.where((xn >= lo[done]) & (xn <= hi[done]), xn, xd)

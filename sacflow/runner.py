@@ -3,8 +3,15 @@
 The simulation contract (``sacflow.solver.Simulation``): ``sim = Simulation(case)``;
 ``sim.coords`` is a :class:`~sacflow.state.GridCoords`; ``sim.total_steps`` an int; ``sim.run()``
 a generator of :class:`~sacflow.state.State`, raising a :class:`~sacflow.errors.SacflowError` on
-failure. Runs resume: a finished run file of the same case is kept as is, and the steps of an
-interrupted run are not written again.
+failure. A simulation that can go on from a stored state also has ``restore(step, arrays,
+first_contact_offset)`` and ``run(start=step + 1)``; its states carry that state
+(``State.restart``).
+
+Runs are never lost and never silently replaced: a finished run file of the same case is kept as
+is; an interrupted one goes on after its last sound stored step (true resume, from the stored
+solver state; damaged step parts are named and dropped); a run of another case stored under the
+same name is replaced only when asked (``overwrite``), otherwise the error names both ids and
+the fields that differ.
 """
 
 from __future__ import annotations
@@ -19,9 +26,18 @@ from typing import Protocol
 from tqdm.auto import tqdm
 
 from sacflow.errors import BoxTooShallowError
+from sacflow.memory import check_memory
+from sacflow.outdir import prepare_output_dir
 from sacflow.schema import Case
 from sacflow.state import GridCoords, State
-from sacflow.store import RunWriter, completed_steps, is_complete, read_scalars
+from sacflow.store import (
+    RunExistsError,
+    RunInfo,
+    RunWriter,
+    read_scalars,
+    replace_message,
+    run_info,
+)
 
 __all__ = ["RunSummary", "Simulation", "run", "run_case"]
 
@@ -74,6 +90,7 @@ def run_case(
     progress: bool = True,
     simulation_factory: Callable[[Case], Simulation] | None = None,
     resume: bool = True,
+    overwrite: bool = False,
 ) -> RunSummary:
     """Run ``case`` and write ``out_dir/<case.name>.nc``.
 
@@ -88,37 +105,53 @@ def run_case(
     simulation_factory : callable, optional
         ``factory(case) -> simulation``; default ``sacflow.solver.Simulation``.
     resume : bool
-        Skip a finished run of the same case; keep the steps of an interrupted one (the
-        simulation is replayed up to them without writing). ``False`` starts afresh.
+        Skip a finished run of the same case; go on after the stored steps of an interrupted
+        one, from the solver state stored with the last sound step (a simulation without
+        ``restore`` is replayed up to it without writing). ``False`` recomputes the case from
+        its first step, replacing its stored steps (asked for: ``sacflow run --restart``).
+    overwrite : bool
+        Replace a run of *another* case stored under the same name. Without it such a run,
+        finished or interrupted, is left as it is and :class:`~sacflow.store.RunExistsError`
+        says how it differs.
 
     Raises
     ------
     SacflowError
         When the simulation fails; the steps stored so far are kept.
+    RunExistsError
+        When ``out_dir/<case.name>.nc`` holds a run of another case and ``overwrite`` is false.
     """
     start = time.perf_counter()
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    path = out_dir / f"{case.name}.nc"
-    if resume and is_complete(path, case.case_id):
-        return _summary(case, path, start, resumed=0, skipped=True)
+    path = Path(out_dir) / f"{case.name}.nc"
+    prepare_output_dir(out_dir)
+    info = run_info(path)
+    same = info.exists and info.matches(case.case_id)
+    if info.complete and same and resume:
+        return _summary(case, info, start, resumed=0, skipped=True)
+    if info.exists and not same and not info.damaged_only and not overwrite:
+        raise RunExistsError(replace_message(info, case))
     requested = case.case_id
+    if same and resume and info.parts and info.case is not None:
+        case = info.case  # an interrupted run goes on as stored (its box may have been grown)
+    keep = len(info.parts) if same and resume and not info.complete else 0
+    if info.damaged:
+        _say(f"{case.name}: dropped damaged steps ({info.problem}): "
+             + ", ".join(p.name for p in info.damaged), progress)
     factory = simulation_factory or _default_factory()
     for growth in range(_MAX_GROWTHS + 1):
         try:
-            done = _run_once(case, path, factory, progress, resume, requested)
+            done = _run_once(case, info, factory, progress, keep, requested)
             break
         except BoxTooShallowError as exc:
             if growth == _MAX_GROWTHS:
                 raise
             case = _deeper(case, exc)
-            message = (f"{case.name}: plastic strain reached the bottom of the cuboid box at step "
-                       f"{exc.step}; running again with depth {exc.depth:.4g} -> "
-                       f"{exc.new_depth:.4g} m ({exc.nz} -> {exc.new_nz} layers)")
-            warnings.warn(message, RuntimeWarning, stacklevel=2)
-            if progress:
-                tqdm.write(message)
-    return _summary(case, path, start, resumed=done, skipped=False)
+            _say(f"{case.name}: plastic strain reached the bottom of the cuboid box at step "
+                 f"{exc.step}; running again with depth {exc.depth:.4g} -> "
+                 f"{exc.new_depth:.4g} m ({exc.nz} -> {exc.new_nz} layers)", progress,
+                 warn=True)
+            info, keep = run_info(path), 0  # this run's own steps, of the shallower box
+    return _summary(case, run_info(path), start, resumed=done, skipped=False)
 
 
 #: How many times a run may deepen its cuboid box (×1.5 each) before giving up.
@@ -127,32 +160,48 @@ _MAX_GROWTHS = 3
 
 def _run_once(
     case: Case,
-    path: Path,
+    info: RunInfo,
     factory: Callable[[Case], Simulation],
     progress: bool,
-    resume: bool,
+    keep: int,
     requested: str,
 ) -> int:
-    """One attempt of :func:`run_case`; returns the number of steps resumed (not rewritten)."""
+    """One attempt of :func:`run_case`: steps ``keep`` onwards; returns ``keep``.
+
+    Everything stored at the path beyond the first ``keep`` steps is replaced: the caller has
+    checked it may be (same case asked afresh, ``overwrite``, or this run's own earlier try).
+    """
+    check_memory(case)  # refuse before allocating what this machine cannot hold
     sim = factory(case)
-    done = completed_steps(path, case.case_id) if resume else 0
+    restart = info.restart() if keep else None
+    restore = getattr(sim, "restore", None)
     writer = RunWriter(
-        path,
-        case,
-        sim.coords,
-        fields=case.output.fields,
-        compression=case.output.compression,
-        resume=resume,
-        requested_case_id=requested,
+        info.path, case, sim.coords, fields=case.stored_fields(),
+        compression=case.output.compression, keep_steps=keep, overwrite=True,
+        requested_case_id=requested, info=info,
     )
-    bar = tqdm(total=sim.total_steps, desc=case.name, unit="step", disable=not progress)
+    if restart is not None and restore is not None:
+        restore(keep - 1, *restart)
+        states, first = sim.run(start=keep), keep  # true resume
+    else:
+        states, first = sim.run(), 0  # replay the stored steps without writing them
+    bar = tqdm(total=sim.total_steps, initial=first, desc=case.name, unit="step",
+               disable=not progress)
     with bar, writer:
-        for index, state in enumerate(sim.run()):
-            if index >= done:
+        for index, state in enumerate(states, first):
+            if index >= keep:
                 writer.append(state)
             bar.set_postfix(_postfix(state), refresh=False)
             bar.update()
-    return done
+    return keep
+
+
+def _say(message: str, progress: bool, warn: bool = False) -> None:
+    """Tell the user: a warning (``warn``) and, with a progress bar, a line above it."""
+    if warn:
+        warnings.warn(message, RuntimeWarning, stacklevel=3)
+    if progress or not warn:
+        tqdm.write(message)
 
 
 def _deeper(case: Case, exc: BoxTooShallowError) -> Case:
@@ -176,8 +225,8 @@ def _postfix(state: State) -> dict[str, str]:
     }
 
 
-def _summary(case: Case, path: Path, start: float, resumed: int, skipped: bool) -> RunSummary:
-    scalars = read_scalars(path)
+def _summary(case: Case, info: RunInfo, start: float, resumed: int, skipped: bool) -> RunSummary:
+    scalars = read_scalars(info.path)
 
     def last(name: str) -> float:
         values = scalars.get(name)
@@ -186,8 +235,8 @@ def _summary(case: Case, path: Path, start: float, resumed: int, skipped: bool) 
     return RunSummary(
         name=case.name,
         case_id=case.case_id,
-        path=path,
-        steps=completed_steps(path),
+        path=info.path,
+        steps=info.steps,
         wall_time=time.perf_counter() - start,
         resumed_steps=resumed,
         skipped=skipped,

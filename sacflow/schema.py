@@ -3,7 +3,8 @@
 A :class:`Case` holds everything that defines a run: the elastic-plastic body (body 1) and its
 hardening law, the counter-body, the surface (smooth, dented, measured), the grid, the load path,
 the solver options and the output selection. Every model is frozen and rejects unknown keys; a
-case is hashable and identified by :attr:`Case.case_id`, the hash of its canonical JSON. Sweeps
+case is hashable and identified by :attr:`Case.case_id`, the hash of the canonical JSON of what
+changes its numbers (not its name, description, thread count or compression level). Sweeps
 are ``case.model_copy(update=...)``.
 
 Units are SI everywhere: m, Pa, N. ``x3`` is depth, positive into the body. Sequences are stored
@@ -48,7 +49,10 @@ __all__ = [
     "Swift",
     "Tabular",
     "Unload",
+    "NOT_IN_IDENTITY",
+    "PLASTIC_FIELDS",
     "case_json_schema",
+    "identity_differences",
     "field_error",
 ]
 
@@ -56,13 +60,34 @@ __all__ = [
 MIN_CELLS_PER_DIAMETER = 8
 #: Least window half-width, in Hertz contact radii at the maximum load.
 MIN_HALF_WIDTH = 1.1
+#: Range of the cuboid layer thickness (grid.depth / grid.nz) over the smaller surface cell
+#: size, when grid.depth is given. Measured on the 650 mN indentation at 16 x 16 cells: the
+#: eigenstrain kernels lose their symmetry to round-off (RuntimeError) below 3e-4 and above
+#: 1.7e4; the range keeps a factor of 30 and 17 from those.
+MIN_LAYER_ASPECT, MAX_LAYER_ASPECT = 1e-2, 1e3
 #: Error type of the case-level checks; its context names the offending field.
 FIELD_ERROR = "sacflow_field"
+#: Fields that do not change the stored numbers, left out of :attr:`Case.case_id`: the name
+#: (the file name), free text, the FFT thread count and the lossless compression level.
+NOT_IN_IDENTITY: tuple[str, ...] = (
+    "name", "description", "solver.fft_threads", "output.compression",
+)
 
 PositiveFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 NonNegativeFloat = Annotated[float, Field(ge=0, allow_inf_nan=False)]
 FiniteFloat = Annotated[float, Field(allow_inf_nan=False)]
 PositiveInt = Annotated[int, Field(ge=1)]
+#: Most cells along one grid axis (nx, ny, nz): far above any grid a machine can hold (the
+#: memory check refuses those with a size estimate), low enough that every index stays a
+#: machine integer.
+MAX_CELLS = 1 << 16
+#: Most increments (or rolling steps) of one load-path segment: a run of that many steps takes
+#: days; the bound keeps the expanded step plan small.
+MAX_STEPS = 100_000
+CellCount = Annotated[int, Field(ge=1, le=MAX_CELLS)]
+#: Most FFT threads (``solver.fft_threads``): FFTW takes a C integer; no machine has more cores.
+MAX_THREADS = 4096
+StepCount = Annotated[int, Field(ge=1, le=MAX_STEPS)]
 #: Radius of curvature [m]; ``inf`` stands for a flat surface.
 Radius = Annotated[float, Field(gt=0)]
 PoissonRatio = Annotated[float, Field(gt=-1, lt=0.5)]
@@ -118,21 +143,68 @@ class Elastic(Model):
 
 
 class _Plastic(Model):
+    """Base of the plastic laws: the rules every law shares.
+
+    The hardening-law models are the one place where a law's rules live: whatever they accept,
+    :func:`sacflow.plasticity.hardening_from_schema` builds and the radial return runs with
+    (σ_Y finite, positive and non-decreasing in εp). The runtime classes of
+    :mod:`sacflow.plasticity` validate their arguments through these models.
+    """
+
     depth_profile: DepthProfile | None = Field(
         None, description="optional depth dependence of the yield stress (surface hardening)"
     )
 
+    def initial_yield_stress(self) -> float:
+        """σ_Y(εp = 0) [Pa], before any depth factor."""
+        raise NotImplementedError
+
+    @model_validator(mode="after")
+    def _check_scaled_yield(self) -> _Plastic:
+        profile, y0 = self.depth_profile, self.initial_yield_stress()
+        if profile is None or not 0.0 < y0 < math.inf:  # the law's own check reports y0
+            return self
+        if not (0.0 < y0 * min(profile.factor) and y0 * max(profile.factor) < math.inf):
+            raise field_error(
+                "depth_profile.factor",
+                f"factor times the initial yield stress ({y0:g} Pa) must stay a finite "
+                "positive stress; use factors of order 1",
+            )
+        return self
+
 
 class Swift(_Plastic):
-    """Swift law σ_Y = B (C + εp)^n, εp in ``strain_unit`` (the seed uses micro-strain)."""
+    """Swift law σ_Y = B (C + εp)^n, εp in ``strain_unit`` (the seed uses micro-strain).
+
+    The initial yield stress σ_Y(0) = B C^n must be a finite positive stress, so C > 0 (C = 0
+    would mean yield at zero stress with an infinite initial hardening slope).
+    """
 
     law: Literal["swift"] = "swift"
     B: PositiveFloat = Field(description="Swift stress coefficient B [Pa]")
-    C: NonNegativeFloat = Field(description="Swift strain offset C, in strain_unit")
+    C: PositiveFloat = Field(
+        description="Swift strain offset C, in strain_unit (> 0: σ_Y(0) = B C^n is the initial "
+        "yield stress)"
+    )
     n: float = Field(gt=0, lt=1, description="Swift hardening exponent n")
     strain_unit: Literal["strain", "microstrain"] = Field(
         description='unit of εp and C in the Swift law ("microstrain": σ_Y = B (C + 1e6 εp)^n)'
     )
+
+    def initial_yield_stress(self) -> float:
+        """σ_Y(0) = B C^n [Pa]."""
+        return self.B * self.C**self.n
+
+    @model_validator(mode="after")
+    def _check_initial_yield(self) -> Swift:
+        y0 = self.initial_yield_stress()
+        if not 0.0 < y0 < math.inf:
+            raise field_error(
+                "B",
+                f"the initial yield stress B C^n = {y0:g} Pa is not a finite positive stress; "
+                "check the magnitudes of B [Pa] and C",
+            )
+        return self
 
 
 class Linear(_Plastic):
@@ -142,6 +214,10 @@ class Linear(_Plastic):
     yield_stress: PositiveFloat = Field(description="initial yield stress σ_Y0 [Pa]")
     modulus: NonNegativeFloat = Field(description="plastic hardening modulus H [Pa]")
 
+    def initial_yield_stress(self) -> float:
+        """σ_Y0 [Pa]."""
+        return self.yield_stress
+
 
 class PerfectlyPlastic(_Plastic):
     """No hardening: σ_Y constant."""
@@ -149,9 +225,18 @@ class PerfectlyPlastic(_Plastic):
     law: Literal["perfectly_plastic"] = "perfectly_plastic"
     yield_stress: PositiveFloat = Field(description="yield stress σ_Y [Pa]")
 
+    def initial_yield_stress(self) -> float:
+        """σ_Y [Pa]."""
+        return self.yield_stress
+
 
 class Tabular(_Plastic):
-    """Piecewise-linear measured hardening curve σ_Y(εp), constant beyond the last point."""
+    """Piecewise-linear measured hardening curve σ_Y(εp) through the given points.
+
+    Beyond the last point the curve stays at the last stress (``beyond_last = "constant"``,
+    the default: no hardening past what was measured, hardening modulus 0 there) or continues
+    with the slope of the last segment (``"extrapolate"``).
+    """
 
     law: Literal["tabular"] = "tabular"
     plastic_strain: tuple[NonNegativeFloat, ...] = Field(
@@ -160,6 +245,15 @@ class Tabular(_Plastic):
     stress: tuple[PositiveFloat, ...] = Field(
         min_length=2, description="yield stresses at those strains [Pa], non-decreasing"
     )
+    beyond_last: Literal["constant", "extrapolate"] = Field(
+        "constant",
+        description='yield stress beyond the last point: "constant" (default) keeps the last '
+        'stress (hardening modulus 0); "extrapolate" continues the last segment\'s slope',
+    )
+
+    def initial_yield_stress(self) -> float:
+        """σ_Y(0), the first stress [Pa]."""
+        return self.stress[0]
 
     @model_validator(mode="after")
     def _check_curve(self) -> Tabular:
@@ -171,6 +265,14 @@ class Tabular(_Plastic):
             raise field_error("plastic_strain", "must be strictly increasing")
         if any(b < a for a, b in zip(self.stress, self.stress[1:], strict=False)):
             raise field_error("stress", "must be non-decreasing (no softening)")
+        e, sig = self.plastic_strain, self.stress
+        for i in range(len(e) - 1):
+            if not (sig[i + 1] - sig[i]) / (e[i + 1] - e[i]) < math.inf:
+                raise field_error(
+                    "plastic_strain",
+                    f"points {i} and {i + 1} are too close for their stress rise: the "
+                    "hardening slope is not a finite number; space them further apart",
+                )
         return self
 
 
@@ -270,9 +372,9 @@ Surface = Annotated[Smooth | Dented | Measured, Field(discriminator="kind")]
 class Grid(Model):
     """Surface grid of the contact window and cuboid layers of the plastic box."""
 
-    nx: int = Field(ge=8, description="number of surface cells along x1")
-    ny: int = Field(ge=8, description="number of surface cells along x2")
-    nz: PositiveInt = Field(description="number of cuboid layers in depth")
+    nx: int = Field(ge=8, le=MAX_CELLS, description="number of surface cells along x1")
+    ny: int = Field(ge=8, le=MAX_CELLS, description="number of surface cells along x2")
+    nz: CellCount = Field(description="number of cuboid layers in depth")
     half_width: PositiveFloat = Field(
         1.5, description="window half-size in Hertz contact radii at the maximum load"
     )
@@ -290,7 +392,7 @@ class Load(Model):
 
     kind: Literal["load"] = "load"
     to: PositiveFloat = Field(description="normal load at the end of the segment [N]")
-    increments: PositiveInt = Field(description="number of load increments")
+    increments: StepCount = Field(description="number of load increments")
     at: tuple[FiniteFloat, FiniteFloat] | None = Field(
         None,
         description="load position (x1, x2) in the body frame [m] for this segment; "
@@ -303,14 +405,14 @@ class Unload(Model):
 
     kind: Literal["unload"] = "unload"
     to: NonNegativeFloat = Field(0.0, description="normal load at the end of the segment [N]")
-    increments: PositiveInt = Field(description="number of unload increments")
+    increments: StepCount = Field(description="number of unload increments")
 
 
 class Hold(Model):
     """Keep the load constant (re-converge the coupled problem)."""
 
     kind: Literal["hold"] = "hold"
-    increments: PositiveInt = Field(1, description="number of hold steps")
+    increments: StepCount = Field(1, description="number of hold steps")
 
 
 class Roll(Model):
@@ -318,7 +420,7 @@ class Roll(Model):
 
     kind: Literal["roll"] = "roll"
     distance: PositiveFloat = Field(description="rolled distance [m]")
-    steps: PositiveInt = Field(description="number of rolling steps")
+    steps: StepCount = Field(description="number of rolling steps")
     direction: tuple[FiniteFloat, FiniteFloat] = Field(
         (1.0, 0.0), description="rolling direction (d1, d2) in the surface plane, normalised"
     )
@@ -354,20 +456,46 @@ class SolverOptions(Model):
         "anderson", description="fixed-point acceleration"
     )
     anderson_depth: PositiveInt = Field(5, description="Anderson mixing history depth")
-    plastic_margin: PositiveFloat = Field(
-        0.1, description="relative margin below yield used to size the plastic box"
+    plastic_margin: float = Field(
+        0.1, gt=0, lt=1,
+        description="relative margin below yield used to size the plastic box, in (0, 1): the "
+        "box reaches where the Hertz von Mises stress exceeds (1 - margin) σ_Y, times (1 + margin)",
     )
-    fft_threads: PositiveInt | None = Field(None, description="FFT threads (default: all cores)")
+    fft_threads: Annotated[int, Field(ge=1, le=MAX_THREADS)] | None = Field(
+        None, description="FFT threads (default: all cores)"
+    )
+
+
+#: Fields that hold no information for an elastic body (zeros, an infinite yield stress): not
+#: stored for it unless ``output.fields`` names them.
+PLASTIC_FIELDS: tuple[str, ...] = (
+    "residual_displacement",
+    "plastic_strain",
+    "equivalent_plastic_strain",
+    "residual_stress",
+    "yield_stress",
+)
 
 
 class Output(Model):
-    """What the store writes."""
+    """What the store writes: which variables, how often the volume fields, compression.
+
+    Per-step scalars and surface fields are stored at every step; volume fields every
+    ``volume_every`` steps and at the last step (NaN at the other steps).
+    """
 
     fields: tuple[FieldName, ...] | None = Field(
-        None, description="variables to store (default: all)"
+        None,
+        description="variables to store (default: all, except for an elastic body the plastic "
+        "ones, which would hold zeros: residual_displacement, plastic_strain, "
+        "equivalent_plastic_strain, residual_stress, yield_stress)",
     )
-    volume_every: PositiveInt = Field(1, description="store volume fields every k steps")
-    compression: int = Field(1, ge=0, le=9, description="zlib compression level")
+    volume_every: PositiveInt = Field(
+        1, description="store volume fields every k steps (and at the last step)"
+    )
+    compression: int = Field(
+        1, ge=0, le=9, description="zlib compression level of the run file (lossless; 0: none)"
+    )
 
 
 # --------------------------------------------------------------------------- case
@@ -390,14 +518,48 @@ class Case(Model):
     output: Output = Field(Output(), description="what the run file stores")
 
     # -- derived quantities ------------------------------------------------------------------
+    def stored_fields(self) -> tuple[str, ...]:
+        """The variables the run file stores: ``output.fields``, or the default (see Output)."""
+        if self.output.fields is not None:
+            return tuple(self.output.fields)
+        every = SCALAR_FIELDS + SURFACE_FIELDS + VOLUME_FIELDS
+        if isinstance(self.body.hardening, Elastic):
+            return tuple(name for name in every if name not in PLASTIC_FIELDS)
+        return every
+
     def canonical_json(self) -> str:
         """Return the case as JSON with sorted keys and no spaces (non-finite as strings)."""
         return json.dumps(json.loads(self.model_dump_json()), sort_keys=True, separators=(",", ":"))
 
+    def identity(self) -> dict[str, Any]:
+        """The fields that determine the stored numbers (:data:`NOT_IN_IDENTITY` left out).
+
+        Nested dict of the case's JSON form without its name, description, thread count and
+        compression level, and with a measured surface's file named by the SHA-256 of its
+        contents rather than by its path: two cases with the same identity write the same
+        numbers.
+        """
+        data = json.loads(self.model_dump_json())
+        for dotted in NOT_IN_IDENTITY:
+            *parents, leaf = dotted.split(".")
+            table = data
+            for key in parents:
+                table = table[key]
+            table.pop(leaf, None)
+        if isinstance(self.surface, Measured) and (digest := _file_digest(self.surface.path)):
+            # the heights are what count: the same file moved keeps the id, an edited one not
+            data["surface"]["path"] = f"sha256:{digest}"
+        return data
+
     @property
     def case_id(self) -> str:
-        """First 12 hex digits of the SHA-256 of :meth:`canonical_json`."""
-        return hashlib.sha256(self.canonical_json().encode()).hexdigest()[:12]
+        """First 12 hex digits of the SHA-256 of the canonical JSON of :meth:`identity`.
+
+        It names the run in its file and in campaign manifests; a stored run of another id is
+        never overwritten unless asked (``sacflow run --overwrite``).
+        """
+        text = json.dumps(self.identity(), sort_keys=True, separators=(",", ":"))
+        return hashlib.sha256(text.encode()).hexdigest()[:12]
 
     @property
     def max_load(self) -> float:
@@ -469,7 +631,24 @@ class Case(Model):
                     f"2a = {2e6 * a:.4g} µm (need {MIN_CELLS_PER_DIAMETER}); "
                     f"use {field} >= {n_min} or a smaller window",
                 )
+        self._check_layers()
         return self
+
+    def _check_layers(self) -> None:
+        """A given box depth must make cuboid layers of a usable shape (see MIN_LAYER_ASPECT)."""
+        if self.grid.depth is None:
+            return
+        cell = min(self.cell_size())
+        thickness = self.grid.depth / self.grid.nz
+        if not MIN_LAYER_ASPECT <= thickness / cell <= MAX_LAYER_ASPECT:
+            low, high = (k * cell * self.grid.nz for k in (MIN_LAYER_ASPECT, MAX_LAYER_ASPECT))
+            raise field_error(
+                "grid.depth",
+                f"cuboid layers {thickness:.3g} m thick (grid.depth / grid.nz) for "
+                f"{cell:.3g} m surface cells: the influence coefficients lose their accuracy; "
+                f"use grid.depth between {low:.3g} and {high:.3g} m for grid.nz = "
+                f"{self.grid.nz}, or omit grid.depth",
+            )
 
     def _contact_radius(self) -> float:
         """Hertz contact radius at max load, or a field error when it cannot be estimated."""
@@ -516,6 +695,31 @@ def _finite_json(value: Any) -> Any:
     if isinstance(value, float) and not math.isfinite(value):
         return "NaN" if math.isnan(value) else ("Infinity" if value > 0 else "-Infinity")
     return value
+
+
+def _file_digest(path: Path) -> str | None:
+    """SHA-256 of a file's contents (first 16 hex digits), or None when it cannot be read."""
+    try:
+        with open(path, "rb") as f:
+            return hashlib.file_digest(f, "sha256").hexdigest()[:16]
+    except OSError:
+        return None
+
+
+def identity_differences(stored: dict[str, Any], current: dict[str, Any]) -> list[str]:
+    """Dotted paths where two case identities (:meth:`Case.identity`) differ, with both values.
+
+    Returns lines such as ``"grid.nx: 128 -> 32"``, in path order.
+    """
+    from sacflow.dotted import flatten
+
+    a, b = flatten(stored), flatten(current)
+    missing = "(absent)"
+    return [
+        f"{key}: {json.dumps(a.get(key, missing))} -> {json.dumps(b.get(key, missing))}"
+        for key in sorted(a.keys() | b.keys())
+        if a.get(key, missing) != b.get(key, missing)
+    ]
 
 
 def case_json_schema() -> dict[str, Any]:

@@ -28,7 +28,7 @@ from __future__ import annotations
 import logging
 import math
 import warnings
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -39,6 +39,7 @@ from sacflow.errors import BoxTooShallowError, ConvergenceError, SacflowError
 from sacflow.geometry import curvature_gap, features_gap
 from sacflow.kernels.fft import Convolution
 from sacflow.kernels.surface import rectangle_displacement, rectangle_stress
+from sacflow.layout import StepPlan, auto_depth, body_grid, plan_steps
 from sacflow.plasticity import (
     Elastic,
     ReturnTangent,
@@ -46,32 +47,26 @@ from sacflow.plasticity import (
     radial_return,
     von_mises,
 )
-from sacflow.reference import composite_modulus, hertz_axis_stress
+from sacflow.reference import composite_modulus
 from sacflow.state import GridCoords, State
 from sacflow.threads import single_threaded_blas
 
-__all__ = ["Simulation", "StepPlan", "plan_steps"]
+__all__ = ["Simulation", "StepPlan", "plan_steps"]  # the last two re-exported from layout
 
 log = logging.getLogger(__name__)
 
 #: Factor by which a too shallow cuboid box is deepened (see Simulation._check_box).
 _GROWTH = 1.5
-
-
-@dataclass(frozen=True)
-class StepPlan:
-    """One increment of the load path: segment index, load [N] and load position [m]."""
-
-    segment: int
-    load: float
-    position: tuple[float, float]
+#: Smallest scale of a relative residual (guards the division when everything is zero).
+_TINY = 1e-300
 
 
 @dataclass(frozen=True)
 class Increment:
     """Converged increment: window slices, its initial gap, the contact solution, the plastic
-    update ``(Δεp, Δp)`` (None when elastic), iteration counts and, when the solver already has
-    them, the residual stress and surface displacement of ``εp_old + Δεp``."""
+    update ``(Δεp, Δp)`` (None when elastic), iteration counts, the final residuals of the
+    plasticity and coupling loops (0 when elastic) and, when the solver already has them, the
+    residual stress and surface displacement of ``εp_old + Δεp``."""
 
     window: tuple[slice, slice]
     geometry: np.ndarray
@@ -80,58 +75,8 @@ class Increment:
     contact_iterations: int
     plasticity_iterations: int
     residual_fields: tuple[np.ndarray, np.ndarray] | None = None
-
-
-def plan_steps(load_path) -> list[StepPlan]:
-    """Expand load-path segments into increments (load positions exact, not snapped to cells)."""
-    steps: list[StepPlan] = []
-    load, pos = 0.0, (0.0, 0.0)
-    for index, seg in enumerate(load_path):
-        if seg.kind in ("load", "unload"):
-            if getattr(seg, "at", None) is not None:
-                if load > 0.0 and tuple(seg.at) != pos:
-                    raise SacflowError(
-                        f"load_path.{index}.at: the load cannot jump while loaded; "
-                        "use a roll segment to move it"
-                    )
-                pos = (float(seg.at[0]), float(seg.at[1]))
-            start = load
-            for k in range(1, seg.increments + 1):
-                load = start + (seg.to - start) * k / seg.increments
-                steps.append(StepPlan(index, load, pos))
-        elif seg.kind == "hold":
-            steps.extend(StepPlan(index, load, pos) for _ in range(seg.increments))
-        elif seg.kind == "roll":
-            start = pos
-            for k in range(1, seg.steps + 1):
-                frac = k / seg.steps
-                target = (
-                    start[0] + seg.distance * seg.direction[0] * frac,
-                    start[1] + seg.distance * seg.direction[1] * frac,
-                )
-                pos = target
-                steps.append(StepPlan(index, load, pos))
-    return steps
-
-
-def _auto_depth(case, law, a: float, p0: float) -> float:
-    """Depth of the cuboid box: where the Hertz von Mises stress at max load falls below yield.
-
-    Uses the on-axis Hertz field (the maximum of von Mises is on the axis for ν ≈ 0.3) at the
-    maximum load, the initial yield stress, and the solver's ``plastic_margin``; never less than
-    the contact radius. Elastic bodies get ``2 a`` (the stress field that is stored).
-    """
-    if isinstance(law, Elastic):
-        return 2.0 * a
-    z = np.linspace(1e-3, 6.0, 3000) * a
-    s_r, s_z = hertz_axis_stress(z, a, p0, case.body.nu)
-    vm = np.abs(s_r - s_z)
-    sy = law.yield_stress(np.zeros_like(z), z)
-    margin = case.solver.plastic_margin
-    above = np.nonzero(vm > sy * (1.0 - margin))[0]
-    if above.size == 0:
-        return a
-    return max(a, float(z[above[-1]]) * (1.0 + margin))
+    plasticity_residual: float = 0.0
+    coupling_residual: float = 0.0
 
 
 class Simulation:
@@ -167,17 +112,15 @@ class Simulation:
         self.steps = plan_steps(case.load_path)
         self.total_steps = len(self.steps)
         # Body grid: the contact window swept along the rolled track.
-        nx, ny = case.grid.nx, case.grid.ny
-        pos = np.array([s.position for s in self.steps] + [(0.0, 0.0)])
-        cells = np.rint(pos / np.array(self.cell)).astype(int)
-        lo, hi = cells.min(axis=0), cells.max(axis=0)
-        self.window = (nx, ny)
-        self.body_shape = (int(nx + hi[0] - lo[0]), int(ny + hi[1] - lo[1]))
-        self._origin_cells = -lo  # body index of the window corner when the load is at 0
+        grid = body_grid(case, self.steps)
+        nx, ny = self.window = grid.window
+        self.body_shape = grid.body
+        self._origin_cells = np.array(grid.origin)  # window corner when the load is at 0
         dx1, dx2 = self.cell
-        x1 = (np.arange(self.body_shape[0]) + lo[0] - nx / 2 + 0.5) * dx1
-        x2 = (np.arange(self.body_shape[1]) + lo[1] - ny / 2 + 0.5) * dx2
-        depth = case.grid.depth or _auto_depth(case, self.law, hertz.a, hertz.p0)
+        x1 = (np.arange(self.body_shape[0]) - grid.origin[0] - nx / 2 + 0.5) * dx1
+        x2 = (np.arange(self.body_shape[1]) - grid.origin[1] - ny / 2 + 0.5) * dx2
+        law = None if isinstance(self.law, Elastic) else self.law
+        depth = case.grid.depth or auto_depth(case, law, hertz.a, hertz.p0)
         self.nz = case.grid.nz
         self.dz = depth / self.nz
         x3 = (np.arange(self.nz) + 0.5) * self.dz
@@ -290,10 +233,11 @@ class Simulation:
             return Increment(sl, geometry, result, None, contact_iterations, 0)
         fields = None
         if opts.scheme == "coupled":
-            result, update, applications, fields = self._coupled(solve, sl, step)
+            result, update, applications, fields, residuals = self._coupled(solve, sl, step)
         else:
-            result, update, applications = self._nested(solve, sl, step)
-        return Increment(sl, geometry, result, update, contact_iterations, applications, fields)
+            result, update, applications, residuals = self._nested(solve, sl, step)
+        return Increment(sl, geometry, result, update, contact_iterations, applications, fields,
+                         *residuals)
 
     def _coupled(self, solve, sl, step: int):
         """Plastic strain increment as one fixed point, the contact solved at every evaluation.
@@ -303,14 +247,17 @@ class Simulation:
         displacement share one forward transform, the contact is warm-started. Converged when
         the relative plastic residual is below ``plasticity_tolerance`` and the residual
         displacement moved by less than ``coupling_tolerance`` (relative to its change over the
-        increment) between the last two evaluations. The increment returned is that last
+        increment, or to the residual displacement already there when that is larger) between
+        the last two evaluations. The increment returned is that last
         iterate ``x`` (not ``G(x)``, which differs from it by less than the tolerance): the
         residual fields of ``εp_old + x`` are then those of the last evaluation, and the step
         needs no further application. Returns ``(contact, (Δεp, Δp), residual-stress
-        applications, (residual stress, residual displacement))``.
+        applications, (residual stress, residual displacement), (plastic residual, coupling
+        residual))``.
         """
         opts = self.case.solver
         u_old = self.residual_displacement
+        u_floor = max(float(np.abs(u_old).max()), _TINY)  # a hold step moves u by round-off
         last = {"u": None, "result": None, "du": np.inf}
 
         def residual_fields(x):
@@ -324,7 +271,7 @@ class Simulation:
             last["fields"] = (stress, u)
             result = solve(u)
             if last["u"] is not None:
-                scale = max(float(np.abs(u - u_old).max()), 1e-300)
+                scale = max(float(np.abs(u - u_old).max()), u_floor)
                 last["du"] = float(np.abs(u - last["u"]).max()) / scale
             last["u"], last["result"] = u, result
             return self._pressure_stress(result.pressure, sl) + stress, apps
@@ -333,23 +280,25 @@ class Simulation:
             return res < opts.plasticity_tolerance and last["du"] < opts.coupling_tolerance
 
         x = np.zeros(self.plastic_strain.shape)  # a moved copy of the last increment: worse
-        dx, dp, applications = self._fixed_point(
+        dx, dp, applications, res = self._fixed_point(
             sigma, x, step, converged, "plasticity", accept_iterate=True)
-        return last["result"], (dx, dp), applications, last["fields"]
+        coupling = 0.0 if not np.isfinite(last["du"]) else last["du"]
+        return last["result"], (dx, dp), applications, last["fields"], (res, coupling)
 
     def _nested(self, solve, sl, step: int):
         """The seed's nested loops (Fig. 5): contact ↔ plastic fixed point for fixed pressure.
 
         The outer loop runs on the residual displacement (Anderson-accelerated); each inner
         plastic solve is inexact (a tenth of the last coupling change, never looser than 1e-2)
-        until the coupling has converged. Returns like :meth:`_coupled`.
+        until the coupling has converged. Returns ``(contact, (Δεp, Δp), residual-stress
+        applications, (plastic residual, coupling residual))``.
         """
         opts = self.case.solver
         x = np.zeros(self.plastic_strain.shape)
         u_old = self.residual_displacement
         u_used = u_old
         applications = 0
-        floor = 1e-300
+        u_floor = max(float(np.abs(u_old).max()), _TINY)  # as in _coupled
         depth = opts.anderson_depth if opts.acceleration == "anderson" else 0
         mixer = AndersonMixer(depth)  # on the residual displacement (the seed's loop variable)
         inner_tol = 1e-2
@@ -362,17 +311,17 @@ class Simulation:
             def sigma(x, sig_pr=sig_pr):
                 return sig_pr + self.eigen.residual_stress(self.plastic_strain + x), 1
 
-            x, dp, n_apps = self._fixed_point(
+            x, dp, n_apps, res = self._fixed_point(
                 sigma, x, step, lambda res, tol=tol: res < tol, "plasticity")
             applications += n_apps
             if not dp.any():
-                return result, (x, dp), applications
+                return result, (x, dp), applications, (res, 0.0)
             u_new = self.eigen.residual_displacement(self.plastic_strain + x)
-            scale = max(np.abs(u_new - u_old).max(), floor)
+            scale = max(float(np.abs(u_new - u_old).max()), u_floor)
             change = float(np.abs(u_new - u_used).max() / scale)
             log.debug("step %d coupling: residual displacement change %.3e", step, change)
             if change < opts.coupling_tolerance and inner_tol <= opts.plasticity_tolerance:
-                return result, (x, dp), applications
+                return result, (x, dp), applications, (res, change)
             inner_tol = 0.0 if change < opts.coupling_tolerance else min(inner_tol, 0.1 * change)
             u_used = mixer.step(u_used.ravel(), u_new.ravel()).reshape(u_new.shape)
         raise ConvergenceError("coupling", step=step, residual=change,
@@ -386,14 +335,17 @@ class Simulation:
 
         ``sigma(x) -> (stress, applications)`` is the elastic stress for the increment ``x``
         (pressure stress plus residual stress of ``εp_old + x``); ``converged(res)`` decides on
-        the relative residual ``max|G(x) − x| / max(|G(x)|, |x|)``. Fixed-point sweeps
+        the relative residual ``max|G(x) − x| / max(|G(x)|, |x|, |εp_old|)`` (relative to the
+        increment, or to the plastic strain already there when that is larger: a hold step, or a
+        rolling step far from the load, changes the plastic strain by round-off). Fixed-point
+        sweeps
         accelerated by Anderson mixing; without acceleration, plain sweeps while they at least
         halve the residual. When the sweeps stall (no halving of the best residual in 25 sweeps)
         it switches to semismooth Newton: the Jacobian ``I − T (A + 2μ)`` (``T`` the algorithmic
         tangent of the return, ``A`` the residual-stress operator; the pressure's dependence on
         ``x`` is left out) is inverted matrix-free by GMRES, with a backtracking line search on
-        the residual. Returns ``(Δεp, Δp, residual-stress applications)`` with ``Δεp = G(x)``,
-        or the converged iterate ``x`` itself with ``accept_iterate``.
+        the residual. Returns ``(Δεp, Δp, residual-stress applications, final residual)`` with
+        ``Δεp = G(x)``, or the converged iterate ``x`` itself with ``accept_iterate``.
         """
         from scipy.sparse.linalg import LinearOperator, gmres  # plastic runs only
 
@@ -402,6 +354,9 @@ class Simulation:
         shape = x.shape
         n = x.size
         applications = 0
+        # The plastic strain already there bounds the scale from below: a hold step's increment
+        # is round-off, and measured against itself it never converges.
+        strain_scale = max(float(np.abs(self.plastic_strain).max()), _TINY)
 
         def evaluate(x):
             nonlocal applications
@@ -410,7 +365,8 @@ class Simulation:
             trial = stress + 2.0 * mu * x
             ret = radial_return(trial, eqps, self.law, mu, depth=depth)
             gx = ret.plastic_strain_increment
-            res = float(np.abs(gx - x).max() / max(np.abs(gx).max(), np.abs(x).max(), 1e-300))
+            scale = max(float(np.abs(gx).max()), float(np.abs(x).max()), strain_scale)
+            res = float(np.abs(gx - x).max()) / scale
             return trial, ret, res
 
         def jacobian_apply(tangent):
@@ -427,7 +383,7 @@ class Simulation:
         for iteration in range(1, opts.plasticity_max_iterations + 1):
             if converged(res) or (not ret.plastic.any() and not x.any()):
                 dx = x if accept_iterate else ret.plastic_strain_increment
-                return dx, ret.eqps_increment, applications
+                return dx, ret.eqps_increment, applications, res
             if mixer is None:
                 newton = newton or res > 0.5 * res_prev
             else:  # Anderson stalls on some active-set changes: fall back to Newton
@@ -460,8 +416,14 @@ class Simulation:
                                iterations=opts.plasticity_max_iterations)
 
     # ------------------------------------------------------------------ driver
-    def run(self) -> Iterator[State]:
+    def run(self, start: int = 0) -> Iterator[State]:
         """Yield one :class:`~sacflow.state.State` per increment of the load path.
+
+        Parameters
+        ----------
+        start : int
+            First increment to solve; the state after increment ``start - 1`` must have been
+            given to :meth:`restore` (true resume of an interrupted run).
 
         Raises
         ------
@@ -469,10 +431,54 @@ class Simulation:
             When an increment does not converge (the states already yielded stay valid).
         """
         every = self.case.output.volume_every
-        for step, plan in enumerate(self.steps):
+        for step, plan in enumerate(self.steps[start:], start):
             with single_threaded_blas():  # lifted while the caller holds the state
                 state = self._advance(step, plan, every)
             yield state
+
+    def restore(
+        self, step: int, restart: Mapping[str, np.ndarray], first_contact_offset: float | None
+    ) -> None:
+        """Take the state stored with step ``step`` to go on with ``run(start=step + 1)``.
+
+        ``restart`` holds the arrays of :data:`~sacflow.state.RESTART_FIELDS` on the body grid
+        and ``first_contact_offset`` the origin of the approach, as :meth:`run` put them in that
+        step's :class:`~sacflow.state.State`. The residual stress is recomputed from the plastic
+        strain (one operator application); the contact pressure of the step becomes the warm
+        start of the next contact solve, as in an uninterrupted run.
+
+        Raises
+        ------
+        SacflowError
+            When the arrays do not fit this case's grid (the stored run is of another grid).
+        """
+        shapes = {
+            "plastic_strain": (*self.body_shape, self.nz, 6),
+            "equivalent_plastic_strain": (*self.body_shape, self.nz),
+            "residual_displacement": self.body_shape,
+            "pressure": self.body_shape,
+        }
+        arrays = {}
+        for name, shape in shapes.items():
+            array = np.asarray(restart[name], dtype=float)
+            if array.shape != shape:
+                raise SacflowError(
+                    f"stored state {name!r} has shape {array.shape}, this case's grid needs "
+                    f"{shape}: the stored steps are of another grid; run with --restart"
+                )
+            arrays[name] = array.copy()
+        self.plastic_strain = arrays["plastic_strain"]
+        self.eqps = arrays["equivalent_plastic_strain"]
+        self.residual_displacement = arrays["residual_displacement"]
+        if self.eigen is not None and self.plastic_strain.any():
+            with single_threaded_blas():
+                self.residual_stress = self.eigen.residual_stress(self.plastic_strain)
+        else:
+            self.residual_stress = np.zeros_like(self.plastic_strain)
+        plan = self.steps[step]
+        window = arrays["pressure"][self._window_slices(plan.position)]
+        self._pressure = window.copy() if plan.load > 0.0 and window.any() else None
+        self._h_offset = first_contact_offset
 
     def _advance(self, step: int, plan: StepPlan, every: int) -> State:
         """Solve increment ``step`` of the load path and return its state."""
@@ -542,6 +548,17 @@ class Simulation:
         surface_displacement = self.residual_displacement.copy()
         surface_displacement[sl] += elastic_share * result.displacement
         cell_area = self.cell[0] * self.cell[1]
+        opts = self.case.solver
+        keep = np.copy if self.plastic else np.asarray  # an elastic body's zeros never change
+        restart = {
+            "plastic_strain": keep(self.plastic_strain),
+            "equivalent_plastic_strain": keep(self.eqps),
+            "residual_displacement": keep(self.residual_displacement),
+            "pressure": pressure,
+        }
+        contact_ok = result.error < opts.contact_tolerance
+        plastic_ok = inc.plasticity_residual < opts.plasticity_tolerance
+        coupling_ok = inc.coupling_residual < opts.coupling_tolerance
         return State(
             step=step,
             segment=plan.segment,
@@ -553,7 +570,15 @@ class Simulation:
             max_pressure=float(result.pressure.max(initial=0.0)),
             contact_iterations=int(n_contact),
             plasticity_iterations=int(n_plastic),
-            converged=True,
+            converged=contact_ok and plastic_ok and coupling_ok,
+            contact_converged=contact_ok,
+            plasticity_converged=plastic_ok,
+            coupling_converged=coupling_ok,
+            contact_residual=float(result.error),
+            plasticity_residual=float(inc.plasticity_residual),
+            coupling_residual=float(inc.coupling_residual),
+            restart=restart,
+            first_contact_offset=self._h_offset,
             surface={
                 "pressure": pressure,
                 "gap": gap,

@@ -11,7 +11,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["COMPONENTS", "GridCoords", "State", "SCALAR_FIELDS", "SURFACE_FIELDS", "VOLUME_FIELDS"]
+__all__ = [
+    "COMPONENTS",
+    "RESTART_FIELDS",
+    "GridCoords",
+    "State",
+    "SCALAR_FIELDS",
+    "SURFACE_FIELDS",
+    "VOLUME_FIELDS",
+]
 
 #: Tensor component order of every (..., 6) array (seed appendix 1 order).
 COMPONENTS: tuple[str, ...] = ("11", "22", "33", "12", "13", "23")
@@ -27,6 +35,12 @@ SCALAR_FIELDS: tuple[str, ...] = (
     "contact_iterations",
     "plasticity_iterations",
     "converged",
+    "contact_converged",
+    "plasticity_converged",
+    "coupling_converged",
+    "contact_residual",
+    "plasticity_residual",
+    "coupling_residual",
     "segment",
 )
 #: Surface fields, arrays of shape (nx1, nx2).
@@ -45,6 +59,18 @@ VOLUME_FIELDS: tuple[str, ...] = (
     "stress",
     "von_mises",
     "yield_stress",
+)
+
+#: What the solver needs to go on after a step (true resume), each stored with the step:
+#: the body's internal variables (plastic strain tensor, equivalent plastic strain), the residual
+#: surface displacement and the contact pressure (the warm start of the next contact solve),
+#: all on the body grid, named as the output fields they equal. The residual stress is not
+#: among them: it is recomputed from the plastic strain (one operator application).
+RESTART_FIELDS: tuple[str, ...] = (
+    "plastic_strain",
+    "equivalent_plastic_strain",
+    "residual_displacement",
+    "pressure",
 )
 
 
@@ -71,9 +97,15 @@ class GridCoords:
 class State:
     """One converged load increment.
 
-    Scalars follow :data:`SCALAR_FIELDS`; ``surface`` maps names of :data:`SURFACE_FIELDS` to
-    (nx1, nx2) arrays; ``volume`` maps names of :data:`VOLUME_FIELDS` to arrays, and is empty on
-    steps where volume output is skipped (Output.volume_every).
+    Scalars follow :data:`SCALAR_FIELDS`: each loop's final residual (contact: relative gap
+    error; plasticity: relative fixed-point residual of the plastic strain increment; coupling:
+    relative change of the residual surface displacement) and whether it met its tolerance;
+    ``converged`` is all three. ``surface`` maps names of :data:`SURFACE_FIELDS` to (nx1, nx2)
+    arrays; ``volume`` maps names of :data:`VOLUME_FIELDS` to arrays, and is empty on steps where
+    volume output is skipped (Output.volume_every). ``restart`` maps the names of
+    :data:`RESTART_FIELDS` to the solver's state after the step and ``first_contact_offset`` is
+    the initial-gap offset of the first contact [m] (the origin of the approach): with them a run
+    goes on after this step without replaying it (empty for simulations that cannot).
     """
 
     step: int
@@ -87,8 +119,16 @@ class State:
     contact_iterations: int
     plasticity_iterations: int
     converged: bool = True
+    contact_converged: bool = True
+    plasticity_converged: bool = True
+    coupling_converged: bool = True
+    contact_residual: float = 0.0
+    plasticity_residual: float = 0.0
+    coupling_residual: float = 0.0
     surface: dict[str, np.ndarray] = field(default_factory=dict)
     volume: dict[str, np.ndarray] = field(default_factory=dict)
+    restart: dict[str, np.ndarray] = field(default_factory=dict)
+    first_contact_offset: float | None = None
 
     def scalars(self) -> dict[str, float | int | bool]:
         """Return the per-step scalars as a dict keyed by :data:`SCALAR_FIELDS`."""

@@ -6,11 +6,24 @@ of dims, units and long names; numerical code hands over bare arrays in a
 :class:`~sacflow.state.State`.
 
 Crash safety. :class:`RunWriter` writes each step as its own small file
-``<path>.parts/step-000123.nc`` (temporary name, then ``os.replace``: a part is either complete or
-absent). A normal end consolidates the parts into ``<path>`` the same way and removes the parts
-folder, so ``<path>`` only ever exists complete (global attribute ``complete = 1``). After a crash,
-:func:`open_run` reads the completed parts (``complete = 0``) and ``RunWriter(..., resume=True)``
-carries on after them.
+``<path>.parts/step-000123-<sha256>.nc`` (temporary name, then ``os.replace``: a part is either
+complete or absent; the name carries the first 16 hex digits of the SHA-256 of its bytes, so a
+part damaged later is recognised). A normal end consolidates the parts into ``<path>`` the same
+way and removes the parts folder, so ``<path>`` only ever exists complete (global attribute
+``complete = 1``). After a crash, :func:`open_run` reads the completed parts (``complete = 0``)
+and ``RunWriter(..., keep_steps=n)`` carries on after the first ``n``. :func:`run_info` says
+what is stored at a path (one look at the file or the parts) and which parts are damaged.
+
+Run identity: a stored run, complete or not, is only replaced when the writer is told to
+(``overwrite=True``; ``sacflow run --overwrite``); otherwise :class:`RunExistsError` names the
+file, both case ids and the fields that differ. Damaged parts, and those after them, are
+always dropped.
+
+True resume: each part also holds, in its group ``restart``, what the solver needs to go on after
+that step (:data:`~sacflow.state.RESTART_FIELDS`: plastic strain, equivalent plastic strain,
+residual displacement, contact pressure; and the first-contact offset), except the arrays that
+the part already stores as output fields with the same values. The consolidated file does not
+keep them.
 
 Parts are uncompressed (they are read once, at consolidation) and leave out the fields that hold
 one value everywhere at their step, which they record by value in the attribute
@@ -20,14 +33,16 @@ thirds of its volume bytes. The consolidated file and :func:`open_run` have them
 
 from __future__ import annotations
 
+import hashlib
 import json
+import math
 import os
 import re
 import shutil
 import tempfile
 from collections.abc import Iterable, Iterator, Mapping
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from importlib import metadata
 from pathlib import Path
@@ -37,8 +52,9 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 import netCDF4
 import numpy as np
 
-from sacflow.schema import Case
-from sacflow.state import COMPONENTS, GridCoords, State
+from sacflow.errors import SacflowError
+from sacflow.schema import Case, identity_differences
+from sacflow.state import COMPONENTS, RESTART_FIELDS, GridCoords, State
 
 if TYPE_CHECKING:  # xarray is imported where runs are read: writers (campaign workers) skip it
     import xarray as xr
@@ -46,6 +62,8 @@ if TYPE_CHECKING:  # xarray is imported where runs are read: writers (campaign w
 __all__ = [
     "VARIABLES",
     "MeasuredSurface",
+    "RunExistsError",
+    "RunInfo",
     "RunWriter",
     "completed_steps",
     "is_complete",
@@ -53,6 +71,7 @@ __all__ = [
     "parts_dir",
     "read_measured_surface",
     "read_scalars",
+    "run_info",
 ]
 
 SCALAR = ("step",)
@@ -74,14 +93,28 @@ class Variable(NamedTuple):
 VARIABLES: dict[str, Variable] = {
     # per-step scalars
     "load": Variable(SCALAR, "N", "applied normal load"),
-    "approach": Variable(SCALAR, "m", "rigid-body approach of the counter-body since contact"),
+    "approach": Variable(
+        SCALAR, "m",
+        "rigid-body approach of the counter-body since first contact (at zero load: where it "
+        "touches the deformed surface, the residual print depth after unloading)"),
     "load_x1": Variable(SCALAR, "m", "load position along x1 (body frame)"),
     "load_x2": Variable(SCALAR, "m", "load position along x2 (body frame)"),
     "contact_area": Variable(SCALAR, "m2", "contact area"),
     "max_pressure": Variable(SCALAR, "Pa", "maximum contact pressure"),
     "contact_iterations": Variable(SCALAR, "1", "elastic contact iterations", "i4"),
     "plasticity_iterations": Variable(SCALAR, "1", "plasticity iterations", "i4"),
-    "converged": Variable(SCALAR, "1", "the increment converged", "bool"),
+    "converged": Variable(SCALAR, "1", "every loop of the increment met its tolerance", "bool"),
+    "contact_converged": Variable(SCALAR, "1", "the contact solve met its tolerance", "bool"),
+    "plasticity_converged": Variable(
+        SCALAR, "1", "the plastic strain fixed point met its tolerance", "bool"),
+    "coupling_converged": Variable(
+        SCALAR, "1", "the contact-plasticity coupling met its tolerance", "bool"),
+    "contact_residual": Variable(
+        SCALAR, "1", "final relative gap error of the contact solve"),
+    "plasticity_residual": Variable(
+        SCALAR, "1", "final relative residual of the plastic strain increment"),
+    "coupling_residual": Variable(
+        SCALAR, "1", "final relative change of the residual surface displacement"),
     "segment": Variable(SCALAR, "1", "index of the load path segment", "i4"),
     # surface fields
     "pressure": Variable(SURFACE, "Pa", "contact pressure"),
@@ -112,7 +145,13 @@ _BOOL_ATTRS = {
     "flag_values": np.array([0, 1], "i1"),
     "flag_meanings": "false true",
 }
-_PART = re.compile(r"^step-(\d+)\.nc$")
+#: Part file names: the step index and the first 16 hex digits of the SHA-256 of the file (parts
+#: written before checksums have none and are checked by reading them).
+_PART = re.compile(r"^step-(\d+)(?:-([0-9a-f]{16}))?\.nc$")
+#: Hex digits of the SHA-256 kept in a part's name.
+_CHECKSUM_DIGITS = 16
+#: netCDF group of a part holding the solver state after its step (see the module docstring).
+RESTART_GROUP = "restart"
 #: Global attribute of a part: JSON ``{field: value}`` of the fields that hold one value
 #: everywhere at that step and are not written out (the consolidated file has them in full).
 UNIFORM_ATTR = "uniform_fields"
@@ -125,6 +164,10 @@ _NETCDF_SUFFIXES = {".nc", ".nc4", ".cdf", ".netcdf", ".h5", ".hdf5"}
 
 
 # --------------------------------------------------------------------------- writing
+class RunExistsError(SacflowError):
+    """A stored run would be replaced or deleted without being asked (``overwrite``)."""
+
+
 class RunWriter:
     """Write one run step by step, atomically (see the module docstring).
 
@@ -141,13 +184,19 @@ class RunWriter:
     compression : int
         zlib level 0..9 (0: none) of the consolidated file; the per-step parts, temporary, are
         not compressed.
-    resume : bool
-        Keep the completed steps of an interrupted run of the same case and append after them.
-        Otherwise (and for parts of another case) any previous output is removed.
+    keep_steps : int
+        Number of stored steps of an interrupted run of this case to keep and append after (its
+        first ``keep_steps`` sound parts); 0 starts afresh.
+    overwrite : bool
+        Allow removing what is stored at ``path`` beyond the kept steps: a consolidated run
+        file, or parts. Without it, :class:`RunExistsError` is raised when anything but damaged
+        parts would be removed.
     requested_case_id : str, optional
         When the case run is an automatic adaptation of the one asked for (a deeper cuboid box,
         see :class:`~sacflow.errors.BoxTooShallowError`): the id of the case asked for, stored
         as the ``requested_case_id`` attribute; :func:`is_complete` accepts either id.
+    info : RunInfo, optional
+        What :func:`run_info` found at ``path``, when the caller has it already.
 
     Examples
     --------
@@ -163,8 +212,10 @@ class RunWriter:
         coords: GridCoords,
         fields: Iterable[str] | None = None,
         compression: int = 1,
-        resume: bool = False,
+        keep_steps: int = 0,
+        overwrite: bool = False,
         requested_case_id: str | None = None,
+        info: RunInfo | None = None,
     ) -> None:
         self.path = Path(path)
         self.parts = parts_dir(self.path)
@@ -172,15 +223,17 @@ class RunWriter:
         self.names = _selected(fields)
         self.compression = compression
         self._closed = False
-        kept = _prepare(self.path, case.case_id, resume)
+        info = info if info is not None else run_info(self.path)
+        kept = _prepare(info, case, keep_steps, overwrite)
         self.attrs = _run_attrs(kept[0]) if kept else _global_attrs(case)
         if requested_case_id is not None and requested_case_id != case.case_id:
             self.attrs["requested_case_id"] = requested_case_id
+        self._stored = list(kept)  # the parts of this run, in step order
         self.next_step = len(kept)  # number of steps stored so far
         self.parts.mkdir(parents=True, exist_ok=True)
 
     def append(self, state: State) -> None:
-        """Store one step as a complete part file."""
+        """Store one step as a complete part file (with the solver state of ``state.restart``)."""
         if self._closed:
             raise RuntimeError(f"{self.path}: writer is closed")
         values = _state_values(state, self.names, self.coords)
@@ -193,11 +246,21 @@ class RunWriter:
         }
         values = {name: v for name, v in values.items() if name not in uniform}
         attrs = {**self.attrs, UNIFORM_ATTR: json.dumps(uniform)}
-        target = self.parts / f"step-{self.next_step:06d}.nc"
+        name = f"step-{self.next_step:06d}"
+        tmp = self.parts / f".{name}.nc.{os.getpid()}.tmp"
         # Parts are temporary: uncompressed (zlib took a third of a small elastic case's time
         # when each step was compressed twice, in its part and in the consolidated file).
-        with _atomic(target) as tmp, _write_through(), self._create(tmp, attrs, 0) as nc:
-            _write_step(nc, 0, state.step, values)
+        try:
+            with _write_through(), self._create(tmp, attrs, 0) as nc:
+                _write_step(nc, 0, state.step, values)
+                if state.restart:
+                    _write_restart(nc, state, {**values, **uniform})
+        except BaseException:
+            tmp.unlink(missing_ok=True)
+            raise
+        target = self.parts / f"{name}-{_checksum(tmp)}.nc"
+        _atomic_rename(tmp, target)
+        self._stored.append(target)
         self.next_step += 1
 
     def close(self) -> None:
@@ -207,7 +270,7 @@ class RunWriter:
         self._closed = True
         attrs = {**self.attrs, "complete": 1}
         with _atomic(self.path) as tmp, _write_through(), self._create(tmp, attrs) as nc:
-            _copy_parts(_complete_parts(self.parts), nc, self.names)
+            _copy_parts(self._stored, nc, self.names)
         shutil.rmtree(self.parts, ignore_errors=True)
 
     def abort(self) -> None:
@@ -250,22 +313,62 @@ def _selected(fields: Iterable[str] | None) -> list[str]:
     return [name for name in VARIABLES if name in fields]
 
 
-def _prepare(path: Path, case_id: str, resume: bool) -> list[Path]:
-    """Clear old output unless resuming the same case; return the parts kept."""
-    parts = _complete_parts(parts_dir(path)) if resume else []
-    if parts and _read_attrs(parts[0]).get("case_id") != case_id:
-        parts = []
-    if resume and is_complete(path, case_id):
-        raise FileExistsError(f"{path} is a complete run of this case; nothing to resume")
-    for stale in [path, *path.parent.glob(f".{path.name}.*.tmp")]:
-        stale.unlink(missing_ok=True)
-    folder = parts_dir(path)
-    if folder.exists():
-        keep = set(parts)
+def _prepare(info: RunInfo, case: Case, keep_steps: int, overwrite: bool) -> list[Path]:
+    """Remove what the new run replaces (see :class:`RunWriter`); return the parts kept."""
+    if keep_steps:
+        if info.complete or not info.matches(case.case_id) or keep_steps > len(info.parts):
+            raise ValueError(f"{info.path}: cannot keep {keep_steps} steps of {info.describe()}")
+    kept = list(info.parts[:keep_steps])
+    replaced = info.complete or info.unreadable or len(info.parts) > keep_steps
+    if replaced and not overwrite:
+        raise RunExistsError(replace_message(info, case))
+    for stale in [info.path, *info.path.parent.glob(f".{info.path.name}.*.tmp")]:
+        if stale != info.path or replaced:
+            stale.unlink(missing_ok=True)
+    folder = parts_dir(info.path)
+    if folder.is_dir():
+        keep = set(kept)
         for item in folder.iterdir():
-            if item not in keep:
+            if item not in keep and item.is_file():
                 item.unlink()
-    return parts
+    return kept
+
+
+def replace_message(info: RunInfo, case: Case) -> str:
+    """One-screen message: what is stored at ``info.path``, how it differs, how to replace it."""
+    lines = [f"{info.path} holds {info.describe()}; this case is {case.case_id}."]
+    stored = info.case
+    if stored is not None and info.case_id != case.case_id:
+        differences = identity_differences(stored.identity(), case.identity())
+        if differences:
+            shown = differences[:_MAX_DIFFERENCES]
+            more = len(differences) - len(shown)
+            lines.append("Fields that differ (stored -> this case):")
+            lines += [f"  {line}" for line in shown]
+            if more:
+                lines.append(f"  ... and {more} more")
+    lines.append(
+        "Nothing was changed. To replace it, run again with --overwrite; to keep it, use "
+        "another --out folder or another case name."
+    )
+    return "\n".join(lines)
+
+
+#: At most this many differing fields are listed in :func:`replace_message`.
+_MAX_DIFFERENCES = 12
+
+
+def _checksum(path: Path) -> str:
+    """First :data:`_CHECKSUM_DIGITS` hex digits of the SHA-256 of the file's bytes."""
+    with open(path, "rb") as f:
+        return hashlib.file_digest(f, "sha256").hexdigest()[:_CHECKSUM_DIGITS]
+
+
+def _atomic_rename(tmp: Path, target: Path) -> None:
+    """Give the finished temporary file ``tmp`` its checksummed name, on disk first."""
+    with open(tmp, "rb+") as f:
+        os.fsync(f.fileno())
+    os.replace(tmp, target)
 
 
 def _global_attrs(case: Case) -> dict[str, Any]:
@@ -425,17 +528,249 @@ def _copy_parts(parts: list[Path], nc: netCDF4.Dataset, names: list[str]) -> Non
 
 
 # --------------------------------------------------------------------------- reading
-def _complete_parts(folder: Path) -> list[Path]:
-    """Parts step-000000.nc, step-000001.nc, ... up to the first missing one."""
+@dataclass(frozen=True)
+class RunInfo:
+    """What is stored at a run path (:func:`run_info`): one look at the file or its parts.
+
+    Attributes
+    ----------
+    path : Path
+        The run file ``<out>/<name>.nc``.
+    complete : bool
+        A consolidated (finished) run file is there.
+    attrs : dict
+        Global attributes of the run (of the file, or of its first part).
+    steps : int
+        Stored steps: of the file, or the sound parts of an interrupted run.
+    parts : tuple of Path
+        The sound parts, step 0 onwards, of an interrupted run.
+    damaged : tuple of Path
+        Parts that cannot be used: the first one whose checksum or contents are wrong, every
+        part after it, and parts after a missing step.
+    problem : str
+        Why the file is unreadable, or the first damaged part is damaged ("" when all is well).
+    unreadable : bool
+        A file is at ``path`` but netCDF cannot read it as a run.
+    variables : tuple of str
+        The stored variables (of the file, or of the first part).
+    """
+
+    path: Path
+    complete: bool = False
+    attrs: Mapping[str, Any] = field(default_factory=dict)
+    steps: int = 0
+    parts: tuple[Path, ...] = ()
+    damaged: tuple[Path, ...] = ()
+    problem: str = ""
+    unreadable: bool = False
+    variables: tuple[str, ...] = ()
+
+    @property
+    def exists(self) -> bool:
+        """Anything is stored at the path (a file, or parts sound or damaged)."""
+        return self.complete or self.unreadable or bool(self.parts or self.damaged)
+
+    @property
+    def damaged_only(self) -> bool:
+        """Nothing usable is stored: only damaged parts (always dropped)."""
+        return not (self.complete or self.unreadable or self.parts) and bool(self.damaged)
+
+    @property
+    def case_id(self) -> str | None:
+        """Case id of the stored run (its ``case_id`` attribute)."""
+        value = self.attrs.get("case_id")
+        return None if value is None else str(value)
+
+    @property
+    def case(self) -> Case | None:
+        """The stored case, or None when absent or no longer valid under this schema."""
+        text = self.attrs.get("case")
+        if not text:
+            return None
+        try:
+            return Case.model_validate_json(str(text))
+        except ValueError:
+            return None
+
+    def matches(self, case_id: str) -> bool:
+        """The stored run is a run of the case ``case_id``.
+
+        It is when ``case_id`` is the stored ``case_id`` or ``requested_case_id`` (a run whose
+        box was deepened automatically), or the id of the stored case under this version's
+        rules (runs written before the id left out names and thread counts).
+        """
+        ids = {self.case_id, self.attrs.get("requested_case_id")}
+        if case_id in ids:
+            return True
+        stored = self.case
+        return stored is not None and stored.case_id == case_id
+
+    def describe(self) -> str:
+        """A few words on what is stored, for messages."""
+        if self.unreadable:
+            return f"a file that is not a readable run ({self.problem})"
+        if self.complete:
+            return f"a finished run of case {self.case_id} ({self.steps} steps)"
+        if self.parts:
+            return f"an interrupted run of case {self.case_id} ({self.steps} steps stored)"
+        if self.damaged:
+            return f"{len(self.damaged)} damaged step parts"
+        return "no run"
+
+    def report(self) -> str:
+        """A few lines for ``sacflow info``: what is stored, of which case, and its state."""
+        lines = [f"{self.path}: {self.describe()}"]
+        if self.attrs:
+            stored = self.case
+            lines.append(f"  case: {stored.name if stored else '?'} (id {self.case_id}"
+                         + (f", asked as {self.attrs['requested_case_id']}"
+                            if "requested_case_id" in self.attrs else "") + ")")
+            lines.append(f"  written by sacflow {self.attrs.get('sacflow_version', '?')}, "
+                         f"created {self.attrs.get('created', '?')}")
+            lines.append(f"  variables: {', '.join(self.variables)}")
+        if self.parts:
+            resumable = "yes" if self.restart_stored() else "by replaying the stored steps"
+            lines.append(f"  resumable: {resumable} (run the same case again)")
+        if self.damaged:
+            lines.append(f"  damaged, dropped at the next run: {len(self.damaged)} parts "
+                         f"({self.problem})")
+        return "\n".join(lines)
+
+    def restart_stored(self) -> bool:
+        """The last sound part holds the solver state (true resume is possible)."""
+        if not self.parts:
+            return False
+        with netCDF4.Dataset(self.parts[-1]) as nc:
+            return RESTART_GROUP in nc.groups
+
+    def restart(self) -> tuple[dict[str, np.ndarray], float | None] | None:
+        """Solver state stored with the last sound part: ``(arrays, first-contact offset)``.
+
+        None when there is no part or the part has no state (written by a simulation that
+        cannot resume, or by an older sacflow); the runner then replays the stored steps.
+        """
+        return _read_restart(self.parts[-1]) if self.parts else None
+
+
+def run_info(path: str | Path) -> RunInfo:
+    """What is stored at the run path ``path``: a finished run, an interrupted one, or nothing.
+
+    Opens a consolidated file once (attributes and step count). For an interrupted run, every
+    part is checked: its SHA-256 against the checksum in its name (parts without one are read
+    through); the first damaged part and those after it are listed in ``damaged``.
+    """
+    path = Path(path)
+    if path.exists() or path.is_symlink():
+        try:
+            with netCDF4.Dataset(path) as nc:
+                attrs = {k: nc.getncattr(k) for k in nc.ncattrs()}
+                steps = len(nc.dimensions["step"])
+                variables = tuple(name for name in VARIABLES if name in nc.variables)
+        except (OSError, KeyError, RuntimeError) as exc:
+            return RunInfo(path, problem=str(exc) or type(exc).__name__, unreadable=True)
+        return RunInfo(path, complete=bool(attrs.get("complete")), attrs=attrs, steps=steps,
+                       variables=variables)
+    parts, damaged, problem = _sound_parts(parts_dir(path))
+    attrs, variables = {}, ()
+    if parts:
+        attrs = _run_attrs(parts[0])
+        variables = tuple(_layout(parts[0])[1])
+    return RunInfo(path, attrs=attrs, steps=len(parts), parts=tuple(parts),
+                   damaged=tuple(damaged), problem=problem, variables=variables)
+
+
+def _sound_parts(folder: Path) -> tuple[list[Path], list[Path], str]:
+    """Sound parts step-0..., the damaged ones after them, and why the first one is damaged."""
     if not folder.is_dir():
-        return []
-    found = {
-        int(m.group(1)): folder / m.group(0) for p in folder.iterdir() if (m := _PART.match(p.name))
-    }
-    parts = []
-    while len(parts) in found:
-        parts.append(found[len(parts)])
-    return parts
+        return [], [], ""
+    found: dict[int, Path] = {}
+    for p in sorted(folder.iterdir()):
+        if (m := _PART.match(p.name)) and p.is_file():
+            found.setdefault(int(m.group(1)), p)
+    sound: list[Path] = []
+    problem = ""
+    for index in sorted(found):
+        part = found[index]
+        if index != len(sound):
+            problem = problem or f"step {len(sound)} is missing"
+            break
+        problem = _part_problem(part)
+        if problem:
+            break
+        sound.append(part)
+    damaged = [found[i] for i in sorted(found) if i >= len(sound)]
+    return sound, damaged, problem
+
+
+def _part_problem(part: Path) -> str:
+    """Why ``part`` cannot be used ("" when it is sound)."""
+    expected = _PART.match(part.name).group(2)  # type: ignore[union-attr]
+    if expected is not None:
+        actual = _checksum(part)
+        return "" if actual == expected else (
+            f"{part.name}: its SHA-256 {actual} does not match the checksum in its name")
+    try:  # a part written before checksums: read it through
+        with netCDF4.Dataset(part) as nc:
+            for var in nc.variables.values():
+                var[...]
+    except (OSError, RuntimeError, KeyError, ValueError) as exc:
+        return f"{part.name}: {exc}"
+    return ""
+
+
+def _write_restart(nc: netCDF4.Dataset, state: State, stored: Mapping[str, Any]) -> None:
+    """Group :data:`RESTART_GROUP` of a part: the solver state after the step.
+
+    Arrays equal to the part's own output field of the same name are not written twice
+    (attribute ``in_output``); arrays holding one value are recorded by value (``uniform``).
+    """
+    group = nc.createGroup(RESTART_GROUP)
+    offset = state.first_contact_offset
+    group.first_contact_offset = math.nan if offset is None else float(offset)
+    in_output, uniform = [], {}
+    for name in RESTART_FIELDS:
+        array = np.asarray(state.restart[name], dtype=float)
+        if name in stored and _same(stored[name], array):
+            in_output.append(name)
+        elif (value := _uniform(array)) is not None:
+            uniform[name] = value
+        else:
+            group.createVariable(name, "f8", VARIABLES[name].dims[1:])[:] = array
+    group.in_output = json.dumps(in_output)
+    group.uniform = json.dumps(uniform)
+
+
+def _same(stored: Any, array: np.ndarray) -> bool:
+    """The stored output value (an array, or one value for a uniform field) equals ``array``."""
+    if np.ndim(stored) == 0:
+        return _uniform(array) == stored
+    return stored is array or np.array_equal(stored, array)
+
+
+def _read_restart(part: Path) -> tuple[dict[str, np.ndarray], float | None] | None:
+    """The solver state a part stores (:func:`_write_restart`), or None when it has none."""
+    with netCDF4.Dataset(part) as nc:
+        nc.set_auto_mask(False)
+        if RESTART_GROUP not in nc.groups:
+            return None
+        group = nc.groups[RESTART_GROUP]
+        in_output = set(json.loads(group.in_output))
+        uniform = json.loads(group.uniform)
+        part_uniform = json.loads(getattr(nc, UNIFORM_ATTR, "{}"))
+        sizes = {name: len(dim) for name, dim in nc.dimensions.items()}
+        arrays = {}
+        for name in RESTART_FIELDS:
+            shape = tuple(sizes[d] for d in VARIABLES[name].dims[1:])
+            if name in group.variables:
+                arrays[name] = np.array(group[name][...], dtype=float)
+            elif name in uniform:
+                arrays[name] = np.full(shape, float(uniform[name]))
+            elif name in in_output and name in part_uniform:
+                arrays[name] = np.full(shape, float(part_uniform[name]))
+            else:
+                arrays[name] = np.array(nc[name][0], dtype=float)
+        offset = float(group.first_contact_offset)
+    return arrays, (None if math.isnan(offset) else offset)
 
 
 def _read_attrs(path: Path) -> dict[str, Any]:
@@ -471,14 +806,15 @@ def open_run(path: str | Path, lazy: bool = False) -> xr.Dataset:
     -------
     xarray.Dataset
         Global attribute ``complete`` is 1 for a finished run, 0 for the steps of an
-        interrupted one. Volume fields are NaN on steps where they were not stored.
+        interrupted one (its sound parts). Volume fields are NaN on steps where they were not
+        stored.
     """
     import xarray as xr
 
     path = Path(path)
     if path.exists():
         return xr.open_dataset(path) if lazy else _load(path)
-    parts = _complete_parts(parts_dir(path))
+    parts = list(run_info(path).parts)
     if not parts:
         raise FileNotFoundError(f"no run at {path} (no file and no completed steps)")
     coords, names = _layout(parts[0])
@@ -506,30 +842,22 @@ def is_complete(path: str | Path, case_id: str) -> bool:
     path = Path(path)
     if not path.exists():
         return False
-    attrs = _read_attrs(path)
-    return bool(attrs.get("complete")) and case_id in (
-        attrs.get("case_id"), attrs.get("requested_case_id"))
+    info = run_info(path)
+    return info.complete and info.matches(case_id)
 
 
 def completed_steps(path: str | Path, case_id: str | None = None) -> int:
     """Number of steps stored for the run file ``path`` (0 if they belong to another case)."""
-    path = Path(path)
-    if path.exists():
-        files = [path]
-    else:
-        files = _complete_parts(parts_dir(path))
-    if not files or (case_id is not None and _read_attrs(files[0]).get("case_id") != case_id):
+    info = run_info(path)
+    if case_id is not None and not info.matches(case_id):
         return 0
-    if files[0] == path:
-        with netCDF4.Dataset(path) as nc:
-            return len(nc.dimensions["step"])
-    return len(files)
+    return info.steps
 
 
 def read_scalars(path: str | Path) -> dict[str, np.ndarray]:
     """Per-step scalars of a run (consolidated or interrupted), without its fields."""
     path = Path(path)
-    files = [path] if path.exists() else _complete_parts(parts_dir(path))
+    files = [path] if path.exists() else list(run_info(path).parts)
     columns: dict[str, list[np.ndarray]] = {}
     for file in files:  # netCDF4 directly: a campaign worker need not import xarray for this
         with netCDF4.Dataset(file) as nc:
@@ -582,12 +910,39 @@ def read_measured_surface(
     return surface
 
 
+#: The text surface format, stated in every message about a text surface file.
+TEXT_SURFACE_FORMAT = (
+    "expected three numeric columns x1 x2 height [m] per line, whitespace- or comma-separated, "
+    "comment lines starting with #"
+)
+
+
 def _read_text_surface(path: Path) -> MeasuredSurface:
-    lines = (line.split("#")[0].strip() for line in path.read_text().splitlines())
-    first = next((line for line in lines if line), "")
-    data = np.loadtxt(path, delimiter="," if "," in first else None, comments="#", ndmin=2)
+    """Read the three-column text format; a bad line is named with its number and the format.
+
+    ``np.loadtxt`` reads well-formed files fast; when it fails, the lines are scanned once to
+    name the first one that is not three numbers (a header ``x1 x2 height``, a missing column),
+    with :data:`TEXT_SURFACE_FORMAT`.
+    """
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError:
+        raise ValueError(f"not a text file (not UTF-8); {TEXT_SURFACE_FORMAT}") from None
+    lines = [line.split("#")[0].strip() for line in text.splitlines()]
+    first = next((line for line in lines if line), None)
+    if first is None:
+        raise ValueError(f"no data lines; {TEXT_SURFACE_FORMAT}")
+    delimiter = "," if "," in first else None
+    try:
+        data = np.loadtxt(path, delimiter=delimiter, comments="#", ndmin=2, encoding="utf-8")
+    except ValueError:
+        raise ValueError(_first_bad_line(lines, delimiter)) from None
     if data.shape[1] != 3:
-        raise ValueError(f"expected 3 columns x1 x2 height [m], found {data.shape[1]}")
+        raise ValueError(f"found {data.shape[1]} columns; {TEXT_SURFACE_FORMAT}")
+    if not np.isfinite(data).all():
+        row = int(np.flatnonzero(~np.isfinite(data).all(axis=1))[0])
+        number = [i for i, line in enumerate(lines, start=1) if line][row]
+        raise ValueError(f"line {number}: values must be finite numbers; {TEXT_SURFACE_FORMAT}")
     x1, i1 = np.unique(data[:, 0], return_inverse=True)
     x2, i2 = np.unique(data[:, 1], return_inverse=True)
     if np.unique(i1 * x2.size + i2).size != len(data) or x1.size * x2.size != len(data):
@@ -595,6 +950,21 @@ def _read_text_surface(path: Path) -> MeasuredSurface:
     height = np.empty((x1.size, x2.size))
     height[i1, i2] = data[:, 2]
     return MeasuredSurface(x1, x2, height)
+
+
+def _first_bad_line(lines: list[str], delimiter: str | None) -> str:
+    """Message naming the first data line that is not three numbers (comments stripped)."""
+    for number, line in enumerate(lines, start=1):
+        if not line:
+            continue
+        fields = [f.strip() for f in line.split(delimiter)]
+        try:
+            values = [float(f) for f in fields]
+        except ValueError:
+            values = []
+        if len(values) != 3:
+            return f"line {number}: {line[:60]!r} is not three numbers; {TEXT_SURFACE_FORMAT}"
+    return f"cannot read the numbers; {TEXT_SURFACE_FORMAT}"  # a form float() takes, loadtxt not
 
 
 def _read_netcdf_surface(path: Path, variable: str) -> MeasuredSurface:

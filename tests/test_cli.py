@@ -96,7 +96,7 @@ def test_cli_validate(capsys):
     out = capsys.readouterr().out.strip()
     assert re.fullmatch(
         r"OK hertz-elastic \([0-9a-f]{12}\): a = 6\.053 µm, p0 = 8\.470 GPa, "
-        r"window 128 x 128 cells",
+        r"window 128 x 128 cells, memory [0-9.]+ MiB \(largest: .+\)",
         out,
     ), out
 

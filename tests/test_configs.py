@@ -18,6 +18,12 @@ CONFIGS = sorted(p for p in (Path(__file__).parent.parent / "configs").glob("*.t
 def tiny(path: Path):
     """The case at 16×16 cells (or the smallest grid its checks allow), 4 layers, few steps."""
     case = load_case(path)
+    nx = max(16, int(np.ceil(16 * case.grid.half_width / 1.5)))
+    return tiny_case(case, nx, 4)
+
+
+def tiny_case(case, nx: int, nz: int):
+    """``case`` on nx × nx cells and nz layers, one increment per load segment, 3 roll steps."""
     segments = []
     for seg in case.load_path:
         if seg.kind == "roll":
@@ -25,8 +31,7 @@ def tiny(path: Path):
         elif seg.kind in ("load", "unload"):
             seg = seg.model_copy(update={"increments": 1})
         segments.append(seg)
-    nx = max(16, int(np.ceil(16 * case.grid.half_width / 1.5)))
-    grid = case.grid.model_copy(update={"nx": nx, "ny": nx, "nz": 4})
+    grid = case.grid.model_copy(update={"nx": nx, "ny": nx, "nz": nz})
     return case.model_copy(update={"grid": grid, "load_path": tuple(segments)})
 
 

@@ -131,3 +131,44 @@ def test_non_convergence_raises_named_error():
     with pytest.raises(ConvergenceError, match="contact.*step 7") as info:
         solve_contact(h, conv, area, load=W, tol=1e-14, max_iter=3, step=7)
     assert info.value.step == 7 and info.value.residual > 1e-14
+
+
+@pytest.mark.parametrize("tol", [1e-4, 1e-7, 1e-10])
+def test_contact_stops_on_the_gap_error(tol):
+    """The documented criterion: complementarity residual below ``tol``, checked independently.
+
+    From the returned pressure alone: the gap h + K p − δ is zero on the contact set and never
+    negative off it, to ``tol`` times the height range of h; ``error`` is that residual.
+    """
+    h, conv, area, _, _ = hertz_problem(48)
+    res = solve_contact(h, conv, area, load=W, tol=tol)
+    gap = h + conv(res.pressure) - res.approach
+    contact = res.pressure > 0
+    scale = np.ptp(h)
+    residual = max(np.abs(gap[contact]).max(), -gap[~contact].min(), 0.0) / scale
+    assert residual < tol, f"gap error {residual:.3e} above the tolerance {tol:.0e}"
+    assert_allclose(res.error, residual, rtol=1e-3, atol=1e-3 * tol,
+                    err_msg="reported error is the gap error")
+
+
+def test_contact_at_zero_load_rests_on_the_highest_point():
+    """No load: zero pressure and the approach at which the counter-body touches (min h)."""
+    h, conv, area, _, _ = hertz_problem(16)
+    bump = h - 2e-9 * np.exp(-((np.arange(16) - 7.5) ** 2)[:, None] / 4.0)  # a hollow: deeper
+    res = solve_contact(bump, conv, area, load=0.0)
+    assert not res.pressure.any() and res.load == 0.0
+    assert res.approach == bump.min() and res.gap.min() == 0.0
+
+
+def test_converged_warm_start_costs_no_iteration():
+    """The criterion is checked on the pressure as given: a solution needs no further update.
+
+    (A criterion on the pressure change needs at least one update to measure a change: every
+    warm-started solve inside the coupled elastic-plastic loop paid for it.)
+    """
+    h, conv, area, _, _ = hertz_problem(48)
+    res = solve_contact(h, conv, area, load=W, tol=1e-10)
+    again = solve_contact(h, conv, area, load=W, tol=1e-10, initial_pressure=res.pressure)
+    assert again.iterations == 0
+    assert_allclose(again.pressure, res.pressure, rtol=0, atol=1e-12 * res.pressure.max())
+    assert_allclose(again.error, res.error, rtol=1e-3)  # u exact here, updated there

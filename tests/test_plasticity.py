@@ -54,8 +54,9 @@ LAWS = {
     "swift_strain": Swift(900e6, 2e-3, 0.2, strain_unit="strain"),
     "linear": Linear(1.2e9, 20e9),
     "perfect": PerfectlyPlastic(1.5e9),
-    "tabular": Tabular([0.0, 1e-3, 4e-3, 1e-2], [1.0e9, 1.3e9, 1.45e9, 1.5e9]),
-    "tabular_flat": Tabular([0.0, 1e-3, 4e-3], [1.0e9, 1.3e9, 1.45e9], extrapolation="flat"),
+    "tabular": Tabular([0.0, 1e-3, 4e-3, 1e-2], [1.0e9, 1.3e9, 1.45e9, 1.5e9],
+                       beyond_last="extrapolate"),
+    "tabular_flat": Tabular([0.0, 1e-3, 4e-3], [1.0e9, 1.3e9, 1.45e9]),  # constant: default
     "depth_swift": DepthScaled(Swift(**SEED_SWIFT), [0.0, 50e-6, 200e-6], [1.4, 1.2, 1.0]),
 }
 
@@ -77,7 +78,7 @@ def test_slope_matches_finite_difference(name):
 
 def test_tabular_interpolation_and_extrapolation():
     e, s = [0.0, 1e-3, 4e-3], [1.0e9, 1.3e9, 1.45e9]
-    lin, flat = Tabular(e, s), Tabular(e, s, extrapolation="flat")
+    lin, flat = Tabular(e, s, beyond_last="extrapolate"), Tabular(e, s)
     p = np.array([0.0, 5e-4, 1e-3, 2.5e-3, 4e-3, 6e-3])
     expected = np.array([1.0e9, 1.15e9, 1.3e9, 1.375e9, 1.45e9, 1.45e9 + 50e9 * 2e-3])
     assert_allclose(lin.yield_stress(p), expected, rtol=1e-14,
@@ -294,7 +295,7 @@ def laws(draw):
                     draw(st.floats(0.01, 0.5)))
     elif kind == "swift_strain":
         law = Swift(draw(st.floats(300e6, 2e9)), draw(st.floats(1e-6, 1e-2)),
-                    draw(st.floats(0.01, 1.0)), strain_unit="strain")
+                    draw(st.floats(0.01, 0.99)), strain_unit="strain")
     elif kind == "linear":
         law = Linear(draw(st.floats(100e6, 2e9)), draw(st.floats(0.0, 1e12)))
     elif kind == "perfect":
@@ -305,7 +306,7 @@ def laws(draw):
         ds = draw(st.lists(st.floats(0.0, 5e8), min_size=m - 1, max_size=m - 1))
         law = Tabular(np.concatenate([[0.0], np.cumsum(de)]),
                       draw(st.floats(100e6, 2e9)) + np.concatenate([[0.0], np.cumsum(ds)]),
-                      extrapolation=draw(st.sampled_from(["linear", "flat"])))
+                      beyond_last=draw(st.sampled_from(["extrapolate", "constant"])))
     if draw(st.booleans()):
         law = DepthScaled(law, [0.0, 1e-4], [draw(st.floats(0.5, 2.0)), 1.0])
     return law
@@ -361,7 +362,8 @@ def test_hardening_from_schema():
     assert isinstance(law, DepthScaled)
     assert_allclose(law.yield_stress(0.0, depth), [2e9, 1.5e9, 1e9], rtol=1e-14,
                     err_msg="depth_profile not applied")
-    as_dict = hardening_from_schema({"law": "swift", "B": 1240e6, "C": 30.0, "n": 0.085})
+    as_dict = hardening_from_schema({"law": "swift", "B": 1240e6, "C": 30.0, "n": 0.085,
+                                     "strain_unit": "microstrain"})
     assert_allclose(as_dict.yield_stress(0.0), 1655.7e6, rtol=1e-4, err_msg="dict input")
     with pytest.raises(ValueError, match="hardening law"):
         hardening_from_schema(ns(law="voce"))

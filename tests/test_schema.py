@@ -167,7 +167,8 @@ def test_case_id_is_stable():
     data = read_file(HERTZ)
     case = case_from_dict(data)
     assert len(case.case_id) == 12 and int(case.case_id, 16) >= 0
-    assert case.case_id == hashlib.sha256(case.canonical_json().encode()).hexdigest()[:12]
+    identity = json.dumps(case.identity(), sort_keys=True, separators=(",", ":"))
+    assert case.case_id == hashlib.sha256(identity.encode()).hexdigest()[:12]
     reordered = dict(reversed(list(copy.deepcopy(data).items())))
     reordered["load_path"][0]["to"] = 6.5e-1
     assert case_from_dict(reordered).case_id == case.case_id, "key order and spelling"
@@ -260,3 +261,33 @@ def test_any_mangled_case_validates_or_raises_config_error(bases, data):
     assert hash(case) == hash(Case.model_validate_json(case.canonical_json()))
     assert Case.model_validate_json(case.canonical_json()) == case
     assert len(case.case_id) == 12
+
+
+def test_case_id_leaves_out_what_changes_no_number():
+    """Name, description, FFT threads and compression do not change the stored numbers."""
+    case = case_from_dict(read_file(HERTZ))
+    for dotted, value in (("name", "renamed"), ("description", "other words"),
+                          ("solver.fft_threads", 1), ("output.compression", 4)):
+        data = case.model_dump()
+        *parents, leaf = dotted.split(".")
+        table = data
+        for key in parents:
+            table = table[key]
+        table[leaf] = value
+        assert Case.model_validate(data).case_id == case.case_id, dotted
+    for dotted, value in (("solver.contact_tolerance", 1e-9), ("output.volume_every", 2),
+                          ("output.fields", ("load",)), ("body.nu", 0.29)):
+        data = case.model_dump()
+        table_name, leaf = dotted.split(".")
+        data[table_name][leaf] = value
+        assert Case.model_validate(data).case_id != case.case_id, dotted
+
+
+def test_measured_surface_identity_is_its_contents(surface_file, tmp_path):
+    """A measured surface counts by its heights: moved, same id; edited, another id."""
+    case = Case.model_validate(measured_tabular(surface_file))
+    moved = tmp_path / "elsewhere.txt"
+    moved.write_bytes(surface_file.read_bytes())
+    assert Case.model_validate(measured_tabular(moved)).case_id == case.case_id
+    moved.write_text(surface_file.read_text().replace(" 0\n", " 1e-9\n", 1))
+    assert Case.model_validate(measured_tabular(moved)).case_id != case.case_id

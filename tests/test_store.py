@@ -28,6 +28,7 @@ from sacflow.state import (
 )
 from sacflow.store import (
     VARIABLES,
+    RunExistsError,
     RunWriter,
     completed_steps,
     is_complete,
@@ -101,9 +102,11 @@ def assert_step_matches(ds: xr.Dataset, index: int, state: State) -> None:
             assert np.isnan(at[name].values).all(), f"{name} should be NaN at step {index}"
 
 
-def write_run(path: Path, case: Case, coords: GridCoords, volumes: list[bool]) -> list[State]:
+def write_run(
+    path: Path, case: Case, coords: GridCoords, volumes: list[bool], overwrite: bool = False
+) -> list[State]:
     states = [make_state(i, coords, v) for i, v in enumerate(volumes)]
-    with RunWriter(path, case, coords) as writer:
+    with RunWriter(path, case, coords, overwrite=overwrite) as writer:
         for state in states:
             writer.append(state)
     return states
@@ -197,7 +200,7 @@ def test_open_run_does_not_hold_the_file(tmp_path, case, coords):
     path = tmp_path / "run.nc"
     write_run(path, case, coords, [True])
     first = open_run(path)
-    states = write_run(path, case, coords, [False, False])  # replaces the file on disk
+    states = write_run(path, case, coords, [False, False], overwrite=True)  # replaces the file
     second = open_run(path)
     assert first.sizes["step"] == 1 and second.sizes["step"] == 2
     assert_step_matches(second, 1, states[1])
@@ -226,7 +229,7 @@ def test_crash_leaves_complete_steps_readable(tmp_path, case, coords):
     assert completed_steps(path, case.case_id) == 2
     assert completed_steps(path, "another-case") == 0
 
-    resumed = RunWriter(path, case, coords, resume=True)
+    resumed = RunWriter(path, case, coords, keep_steps=2)
     assert resumed.next_step == 2
     resumed.append(states[2])
     resumed.close()
@@ -249,15 +252,24 @@ def test_resume_rules(tmp_path, case, coords):
     path = tmp_path / "run.nc"
     writer = RunWriter(path, case, coords)
     writer.append(make_state(0, coords))
-    other = case.model_copy(update={"description": "another case"})
-    assert RunWriter(path, other, coords, resume=True).next_step == 0, "parts of another case"
+    other = case.model_copy(update={"grid": case.grid.model_copy(update={"nz": 5})})
+    with pytest.raises(RunExistsError, match="interrupted run") as err:
+        RunWriter(path, other, coords)
+    assert "grid.nz: 3 -> 5" in str(err.value) and "--overwrite" in str(err.value)
+    assert completed_steps(path) == 1, "the other case's parts are left alone"
+    with pytest.raises(ValueError, match="cannot keep"):
+        RunWriter(path, other, coords, keep_steps=1)
+    assert RunWriter(path, other, coords, overwrite=True).next_step == 0, "asked: replaced"
     assert completed_steps(path) == 0
 
     write_run(path, case, coords, [True])
-    with pytest.raises(FileExistsError):
-        RunWriter(path, case, coords, resume=True)
-    assert RunWriter(path, case, coords, resume=False).next_step == 0
-    assert not path.exists(), "a fresh start removes the old run file"
+    with pytest.raises(ValueError, match="cannot keep"):
+        RunWriter(path, case, coords, keep_steps=1)
+    with pytest.raises(RunExistsError, match="finished run"):
+        RunWriter(path, case, coords)
+    assert path.exists(), "a finished run is not removed unless asked"
+    assert RunWriter(path, case, coords, overwrite=True).next_step == 0
+    assert not path.exists(), "a fresh start asked for removes the old run file"
 
 def elastic_like_state(step: int, coords: GridCoords) -> State:
     """A state as an elastic body gives: zero plastic fields, infinite yield stress."""
@@ -280,7 +292,7 @@ def test_uniform_fields_are_recorded_by_value_in_parts(tmp_path, case, coords):
         writer.append(state)
     uniform = {"plastic_strain", "equivalent_plastic_strain", "residual_stress",
                "yield_stress", "residual_displacement"}
-    part = parts_dir(path) / "step-000001.nc"
+    part = next(parts_dir(path).glob("step-000001-*.nc"))
     with netCDF4.Dataset(part) as nc:
         recorded = json.loads(nc.uniform_fields)
         assert set(recorded) == uniform
@@ -294,7 +306,7 @@ def test_uniform_fields_are_recorded_by_value_in_parts(tmp_path, case, coords):
     for index in range(2):
         assert_step_matches(interrupted, index, states[index])
 
-    resumed = RunWriter(path, case, coords, resume=True)
+    resumed = RunWriter(path, case, coords, keep_steps=2)
     resumed.append(states[2])
     resumed.close()
     ds = open_run(path)
@@ -343,7 +355,7 @@ def test_sigkill_mid_run_then_resume(tmp_path, case, coords):
     for index in range(done):
         assert_step_matches(ds, index, states[index])
 
-    with RunWriter(path, case, coords, resume=True) as writer:
+    with RunWriter(path, case, coords, keep_steps=done) as writer:
         assert writer.next_step == done
         for state in states[done:]:
             writer.append(state)
@@ -385,8 +397,8 @@ def test_read_measured_surface_text_and_netcdf(tmp_path):
     [
         (None, "file not found"),
         ("0 0 1\n1 0 1\n0 1 1\n", "rectangular"),
-        ("0 0\n1 1\n", "3 columns"),
-        ("hello world\n", "could not convert|not a readable"),
+        ("0 0\n1 1\n", "found 2 columns; expected three numeric columns"),
+        ("hello world\n", "line 1: 'hello world' is not three numbers"),
     ],
 )
 def test_read_measured_surface_errors(tmp_path, content, match):

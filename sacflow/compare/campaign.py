@@ -15,7 +15,7 @@ Swept parameters become coordinates along ``case``. They are read from
 from __future__ import annotations
 
 import json
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -23,6 +23,7 @@ import numpy as np
 import xarray as xr
 
 from sacflow.compare.core import CompareError, RunLike, build, case_name, load_run
+from sacflow.dotted import flatten
 from sacflow.store import open_run
 
 __all__ = ["campaign_summary", "flatten"]
@@ -30,20 +31,6 @@ __all__ = ["campaign_summary", "flatten"]
 Parameters = str | Path | Mapping[str, Any] | Sequence[str] | None
 _IGNORED = {"name", "description"}
 _WALL_TIME_ATTRS = ("wall_time", "wall_time_s", "elapsed")
-
-
-def flatten(value: Any, prefix: str = "") -> dict[str, Any]:
-    """Nested dicts and lists as ``{"dotted.key.0": scalar}`` (list items by index)."""
-    if isinstance(value, Mapping):
-        items: Iterable[tuple[Any, Any]] = value.items()
-    elif isinstance(value, list | tuple):
-        items = enumerate(value)
-    else:
-        return {prefix: value}
-    out: dict[str, Any] = {}
-    for key, item in items:
-        out.update(flatten(item, f"{prefix}.{key}" if prefix else str(key)))
-    return out
 
 
 def _open(source: RunLike) -> xr.Dataset:

@@ -40,10 +40,12 @@ __all__ = [
     "build",
     "case_name",
     "case_of",
+    "cell_bounds",
     "finite_steps",
     "load_run",
     "max_load_index",
     "nearest",
+    "nearest_inside",
     "require",
     "step_index",
 ]
@@ -53,6 +55,10 @@ RunLike = xr.Dataset | str | Path
 
 #: Relative tolerance defining "at the maximum load".
 MAX_LOAD_RTOL = 1e-9
+#: Slack of the stored-range check, in cell sizes (round-off of a position given on a bound).
+RANGE_SLACK = 1e-9
+#: What each coordinate of a run covers, for the messages of :func:`nearest_inside`.
+COVERED = {"x1": "surface grid", "x2": "surface grid", "x3": "cuboid box"}
 
 
 class CompareError(SacflowError):
@@ -345,3 +351,60 @@ def step_index(ds: xr.Dataset, name: str, which: str | int, stage: str) -> int:
 def nearest(values: np.ndarray, target: float) -> int:
     """Index of the entry of ``values`` nearest to ``target``."""
     return int(np.argmin(np.abs(np.asarray(values, dtype=float) - target)))
+
+
+def cell_bounds(values: np.ndarray, dim: str) -> tuple[float, float]:
+    """Extent ``(low, high)`` [m] of the cells whose centres are ``values`` along ``dim``.
+
+    Cells are uniform: each centre is half a spacing from its cell's faces. A single cuboid
+    layer (``x3``) spans from the surface to twice its centre depth; a single surface cell has
+    no known width (its centre only).
+    """
+    x = np.asarray(values, dtype=float)
+    if x.size >= 2:
+        half = 0.5 * (x[-1] - x[0]) / (x.size - 1)
+        return float(x[0] - half), float(x[-1] + half)
+    if dim == "x3":
+        return 0.0, float(2.0 * x[0])
+    return float(x[0]), float(x[0])
+
+
+def nearest_inside(
+    ds: xr.Dataset, dim: str, target: float, option: str, fix: str = ""
+) -> int:
+    """Index of the cell of ``dim`` nearest to ``target``, which must lie inside the stored cells.
+
+    A position beyond the stored range is an error, not the edge cell: the nearest cell of a
+    depth below the cuboid box is its bottom layer, whose numbers would be reported as those of
+    the depth asked for (a 65 µm map read from the 13 µm layer of a 14 µm box).
+
+    Parameters
+    ----------
+    ds : Dataset
+        The run.
+    dim : {"x1", "x2", "x3"}
+        Coordinate searched.
+    target : float
+        Requested position [m].
+    option : str
+        How the user gave it (``"--depth"``), named in the message.
+    fix : str
+        What else to do, appended to the message (e.g. the default to fall back on).
+
+    Raises
+    ------
+    CompareError
+        Naming the option, the requested position and the stored range of the run.
+    """
+    values = np.asarray(ds[dim].values, dtype=float)
+    low, high = cell_bounds(values, dim)
+    slack = RANGE_SLACK * max(high - low, abs(high), 1e-300)
+    if not (np.isfinite(target) and low - slack <= target <= high + slack):
+        what = COVERED.get(dim, "grid")
+        raise CompareError(
+            f"{_where(ds)}{option} {target:.4g} m is outside the {what} of run "
+            f"{case_name(ds)!r}: its cells cover {dim} in [{low:.4g}, {high:.4g}] m; "
+            f"give {option} inside that range"
+            + (f" {fix}" if fix else "")
+        )
+    return nearest(values, target)

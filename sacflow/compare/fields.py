@@ -2,7 +2,9 @@
 
 Profiles off the grid points are linear interpolations between cell centres (fields are constant
 per cuboid, so this is the natural continuous reading); maps are taken in the cuboid layer
-nearest to the requested depth, whose actual depth is recorded in the attributes.
+nearest to the requested depth, whose actual depth is recorded in the attributes. A depth
+outside the cuboid box is an error (never its bottom layer read as that depth); by default the
+map is taken in the layer of the extreme residual stress.
 """
 
 from __future__ import annotations
@@ -19,7 +21,7 @@ from sacflow.compare.core import (
     case_name,
     load_run,
     max_load_index,
-    nearest,
+    nearest_inside,
     require,
     step_index,
 )
@@ -189,16 +191,22 @@ def indentation_profiles(
 
 
 def residual_map(
-    run: RunLike, depth: float = 65e-6, component: str = "11", step: str | int = "last"
+    run: RunLike, depth: float | None = None, component: str = "11", step: str | int = "last"
 ) -> xr.Dataset:
     """Residual stress map in the plane x3 = ``depth`` (nearest layer) (seed Fig. 21).
+
+    The seed's map (σ11 down to ≈ −500 MPa at x3 ≈ 50–65 µm under a dent) shows the layer where
+    the residual stress is largest; without ``depth`` the map is taken there, in the layer
+    holding the largest |residual σ_component| of the step, wherever the run's box lies.
 
     Parameters
     ----------
     run : Dataset or path
         An elastic-plastic run.
-    depth : float
-        Depth of the plane [m]; the nearest cuboid layer is used.
+    depth : float, optional
+        Depth of the plane [m]; the nearest cuboid layer is used. It must lie inside the cuboid
+        box of the run (else :class:`~sacflow.compare.core.CompareError`). Default: the layer
+        of the extreme residual stress component (attribute ``depth_choice``).
     component : {"11", "22", "33", "12", "13", "23"}
         Residual stress component.
     step : "last", "max_load" or int
@@ -207,16 +215,25 @@ def residual_map(
     Returns
     -------
     xarray.Dataset
-        ``residual_stress_map`` (x1, x2); ``map_min``/``map_max`` and their positions.
+        ``residual_stress_map`` (x1, x2); ``map_min``/``map_max`` and their positions;
+        attributes ``depth`` (the layer used), ``requested_depth`` (if given), ``depth_choice``.
     """
     ds = load_run(run)
     stage = "residual-map"
     if str(component) not in COMPONENTS:
         raise CompareError(f"component must be one of {', '.join(COMPONENTS)}, not {component!r}")
     index = step_index(ds, "residual_stress", step, stage)
-    layer = nearest(ds["x3"].values, depth)
-    field = ds["residual_stress"].isel(step=index, x3=layer).sel(component=str(component))
-    field = field.transpose("x1", "x2")
+    volume = ds["residual_stress"].isel(step=index).sel(component=str(component))
+    if depth is None:
+        layer = _extreme_layer(volume)
+        choice = f"layer of the extreme residual stress {component}"
+    else:
+        layer = nearest_inside(
+            ds, "x3", float(depth), "--depth",
+            fix="(or leave it out: the layer of the extreme residual stress)",
+        )
+        choice = "requested"
+    field = volume.isel(x3=layer).transpose("x1", "x2")
     low, at_low = _argext(field, np.nanargmin)
     high, at_high = _argext(field, np.nanargmax)
     actual = float(ds["x3"].values[layer])
@@ -236,8 +253,17 @@ def residual_map(
             "case": case_name(ds),
             "component": str(component),
             "depth": actual,
-            "requested_depth": float(depth),
+            "requested_depth": None if depth is None else float(depth),
+            "depth_choice": choice,
             "step": int(ds["step"].values[index]),
         },
         context={"component": component, "depth": f"{actual * 1e6:.4g} µm"},
     )
+
+
+def _extreme_layer(volume: xr.DataArray) -> int:
+    """Index along x3 of the layer holding the largest |value| of ``volume`` (x1, x2, x3)."""
+    magnitude = np.abs(np.asarray(volume.transpose("x1", "x2", "x3").values, dtype=float))
+    if not np.isfinite(magnitude).any():
+        return 0
+    return int(np.unravel_index(int(np.nanargmax(magnitude)), magnitude.shape)[2])

@@ -2,7 +2,8 @@
 
 Each run keeps its own grid; a profile is read on the row of cells nearest to the requested x2
 and, for volume fields, in the cuboid layer nearest to the requested depth (recorded in the
-attributes).
+attributes). A requested x2 or depth outside a run's stored cells is an error, never the edge
+row or the bottom layer read as that position.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from sacflow.compare.core import (
     load_run,
     max_load_index,
     nearest,
+    nearest_inside,
     require,
     step_index,
 )
@@ -110,10 +112,14 @@ def asymmetry(x: np.ndarray, values: np.ndarray, centre: float) -> float:
 def _sigma11_profile(
     ds: xr.Dataset, depth: float, x2: float, stage: str
 ) -> tuple[np.ndarray, np.ndarray, dict[str, float]]:
-    """Residual σ11 along x1 at the nearest layer and row, last step with volume output."""
+    """Residual σ11 along x1 at the nearest layer and row, last step with volume output.
+
+    Raises :class:`~sacflow.compare.core.CompareError` when ``depth`` or ``x2`` lies outside
+    the run's stored cells.
+    """
     index = step_index(ds, "residual_stress", "last", stage)
-    layer = nearest(ds["x3"].values, depth)
-    row = nearest(ds["x2"].values, x2)
+    layer = nearest_inside(ds, "x3", depth, "--depth", fix=_DEPTH_FIX)
+    row = nearest_inside(ds, "x2", x2, "--x2")
     da = ds["residual_stress"].isel(step=index, x3=layer, x2=row).sel(component="11")
     chosen = {
         "step": int(ds["step"].values[index]),
@@ -121,6 +127,26 @@ def _sigma11_profile(
         "x2": float(ds["x2"].values[row]),
     }
     return np.asarray(da["x1"].values, dtype=float), np.asarray(da.values, dtype=float), chosen
+
+
+#: What to do about a depth outside a run's box, besides giving one inside it.
+_DEPTH_FIX = "(or leave it out: the depth of the vertical run's minimum residual σ11)"
+
+
+def _compressive_depth(ds: xr.Dataset, x2: float, stage: str) -> float:
+    """Depth [m] of the layer of the minimum residual σ11 on the row nearest to ``x2``.
+
+    The depth of the seed's Fig. 22: the compressive residual stress under the dent, where
+    vertical loading and rolling differ most.
+    """
+    index = step_index(ds, "residual_stress", "last", stage)
+    row = nearest_inside(ds, "x2", x2, "--x2")
+    s11 = ds["residual_stress"].isel(step=index, x2=row).sel(component="11")
+    values = np.asarray(s11.transpose("x1", "x3").values, dtype=float)
+    if not np.isfinite(values).any():
+        raise CompareError(f"run {case_name(ds)!r} stores no finite residual σ11 on x2 = {x2:g} m")
+    layer = np.unravel_index(int(np.nanargmin(values)), values.shape)[1]
+    return float(ds["x3"].values[layer])
 
 
 def _default_centre(ds: xr.Dataset) -> float:
@@ -135,7 +161,7 @@ def _default_centre(ds: xr.Dataset) -> float:
 def vertical_vs_rolling(
     vertical: RunLike,
     rolling: RunLike,
-    depth: float = 75e-6,
+    depth: float | None = None,
     x2: float = 0.0,
     centre: float | None = None,
 ) -> xr.Dataset:
@@ -145,10 +171,12 @@ def vertical_vs_rolling(
     ----------
     vertical, rolling : Dataset or path
         The two runs (e.g. ``dent-vertical`` and ``dent-rolling``).
-    depth : float
-        Depth of the profile [m]; nearest cuboid layer of each run.
+    depth : float, optional
+        Depth of the profile [m]; nearest cuboid layer of each run, which must lie inside both
+        runs' cuboid boxes. Default: the depth of the minimum residual σ11 of the vertical run
+        on the row of ``x2`` (seed Fig. 22: 75 µm under the dent); attribute ``depth_choice``.
     x2 : float
-        Lateral position of the profile [m]; nearest row of cells.
+        Lateral position of the profile [m]; nearest row of cells (inside both grids).
     centre : float, optional
         x1 about which the asymmetry is measured; default: the first dent's x1 of the
         vertical case, else its load x1 at the maximum load.
@@ -163,6 +191,10 @@ def vertical_vs_rolling(
     """
     stage = "vertical-vs-rolling"
     ds_v, ds_r = load_run(vertical), load_run(rolling)
+    choice = "requested"
+    if depth is None:
+        depth = _compressive_depth(ds_v, x2, stage)
+        choice = "minimum residual σ11 of the vertical run"
     x_v, s_v, at_v = _sigma11_profile(ds_v, depth, x2, stage)
     x_r, s_r, at_r = _sigma11_profile(ds_r, depth, x2, stage)
     if not (np.isfinite(s_v).any() and np.isfinite(s_r).any()):
@@ -189,6 +221,7 @@ def vertical_vs_rolling(
             "case_rolling": case_name(ds_r),
             "centre": c,
             "requested_depth": float(depth),
+            "depth_choice": choice,
             "requested_x2": float(x2),
             **{f"{k}_vertical": v for k, v in at_v.items()},
             **{f"{k}_rolling": v for k, v in at_r.items()},

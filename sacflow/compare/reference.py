@@ -21,6 +21,7 @@ from sacflow.compare.core import (
     build,
     case_name,
     load_run,
+    nearest_inside,
     require,
     step_index,
 )
@@ -84,6 +85,9 @@ def select_field(
 ) -> tuple[xr.DataArray, dict[str, Any]]:
     """``ds[variable]`` at one step and at the positions of ``select`` (nearest cell).
 
+    A position outside the stored cells of its coordinate raises
+    :class:`~sacflow.compare.core.CompareError` (never the edge cell read as that position).
+
     Returns the selected field and the values actually selected (``step`` and each key of
     ``select``), for the result attributes.
     """
@@ -101,7 +105,8 @@ def select_field(
             )
         coord = da[key]
         if np.issubdtype(coord.dtype, np.number):
-            da = da.sel({key: float(value)}, method="nearest")
+            index = nearest_inside(ds, key, float(value), f"--select {key}")
+            da = da.isel({key: index})
             chosen[key] = float(da[key])
         else:
             if str(value) not in [str(v) for v in coord.values]:

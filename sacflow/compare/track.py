@@ -23,7 +23,7 @@ from sacflow.compare.core import (
     case_name,
     case_of,
     load_run,
-    nearest,
+    nearest_inside,
     require,
     step_index,
 )
@@ -90,7 +90,8 @@ def track_profile(
     run : Dataset or path
         A rolling run (e.g. ``rolling-smooth``).
     x2 : float
-        Lateral position of the profile [m] (nearest row of cells; the track centre is 0).
+        Lateral position of the profile [m] (nearest row of cells; the track centre is 0); a
+        position outside the stored cells is an error.
     tolerance : float
         Relative width of the steady band (default 2 %).
     end_margin : float, optional
@@ -107,7 +108,7 @@ def track_profile(
     stage = "track"
     require(ds, "load", "load_x1", "residual_displacement", stage=stage)
     index = step_index(ds, "residual_displacement", "last", stage)
-    row = nearest(ds["x2"].values, x2)
+    row = nearest_inside(ds, "x2", x2, "--x2", fix="(the track centre is x2 = 0)")
     profile = np.asarray(ds["residual_displacement"].isel(step=index, x2=row).values, dtype=float)
     x1 = np.asarray(ds["x1"].values, dtype=float)
     loaded = np.flatnonzero(np.asarray(ds["load"].values, dtype=float) > 0.0)

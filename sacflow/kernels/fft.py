@@ -27,6 +27,8 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
+from sacflow.environment import fft_threads_from_env, fftw_planner_from_env
+
 #: Optional modules pyfftw's package imports for its interfaces, which sacflow does not use:
 #: ``dask.array`` (with xarray and pandas) and ``scipy.fftpack`` (with ``scipy.fft``).
 _PYFFTW_OPTIONAL = ("dask.array", "scipy.fftpack")
@@ -82,10 +84,14 @@ _THREADED_POINTS = 1 << 18
 
 
 def default_threads() -> int:
-    """Number of FFT threads: ``SACFLOW_FFT_THREADS`` or the number of usable cores."""
-    env = os.environ.get("SACFLOW_FFT_THREADS")
-    if env:
-        return max(1, int(env))
+    """Number of FFT threads: ``SACFLOW_FFT_THREADS`` or the number of usable cores.
+
+    A value that is not a whole number >= 1 raises
+    :class:`~sacflow.errors.EnvironmentVariableError` (see :mod:`sacflow.environment`).
+    """
+    from_env = fft_threads_from_env()
+    if from_env is not None:
+        return from_env
     try:
         return max(1, len(os.sched_getaffinity(0)))
     except AttributeError:  # pragma: no cover - not on Linux
@@ -109,8 +115,8 @@ def _planner(points: int, ndim: int, one_shot: bool = False) -> tuple[str, float
     """
     if one_shot:
         return "FFTW_ESTIMATE", None
-    forced = os.environ.get("SACFLOW_FFTW_PLANNER", "").lower()
-    if forced in ("estimate", "measure"):
+    forced = fftw_planner_from_env()  # None, "estimate" or "measure"; anything else raises
+    if forced is not None:
         flag = f"FFTW_{forced.upper()}"
     else:
         flag = "FFTW_MEASURE" if points >= _MEASURED_POINTS else "FFTW_ESTIMATE"
@@ -372,7 +378,7 @@ class RealToReal:
             # FFTW's estimated real-to-real plans are slow on batches of strided lines (a
             # 64×64×32-cuboid eigenstrain grid: 9.8 ms estimated, 1.3 ms measured): always
             # measure, within the time limit of 3-D plans (src is overwritten while planning).
-            forced = os.environ.get("SACFLOW_FFTW_PLANNER", "").lower() == "estimate"
+            forced = fftw_planner_from_env() == "estimate"
             flag = "FFTW_ESTIMATE" if forced else "FFTW_MEASURE"
             self._plan = pyfftw.FFTW(src, dst, axes=(axis,), direction=[kind], flags=(flag,),
                                      threads=threads, planning_timelimit=_PLANNING_SECONDS)

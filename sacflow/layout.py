@@ -1,0 +1,124 @@
+"""Grid layout and step planning of a case: pure functions, no operators, no I/O.
+
+A load path is expanded into increments (:func:`plan_steps`): load and unload segments change
+the normal load in equal steps, hold segments repeat it, roll segments move it over the body at
+constant load. The body-fixed grid (:func:`body_grid`) is the contact window swept along every
+load position of the path, each placed on its nearest cell; its cuboid box is ``grid.depth``
+deep, or as deep as the elastic (Hertz) von Mises stress at the maximum load reaches yield plus
+a margin (:func:`auto_depth`). :class:`sacflow.solver.Simulation` and the memory estimate
+(:mod:`sacflow.memory`) both lay a case out through these functions.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from sacflow.errors import SacflowError
+from sacflow.reference import hertz_axis_stress
+
+__all__ = ["BodyGrid", "StepPlan", "auto_depth", "body_grid", "plan_steps"]
+
+#: Depths sampled (in Hertz contact radii) when sizing the cuboid box.
+_DEPTH_SAMPLES = np.linspace(1e-3, 6.0, 3000)
+#: Depth of an elastic body's box, in Hertz contact radii (the stored stress field).
+ELASTIC_DEPTH = 2.0
+
+
+@dataclass(frozen=True)
+class StepPlan:
+    """One increment of the load path: segment index, load [N] and load position [m]."""
+
+    segment: int
+    load: float
+    position: tuple[float, float]
+
+
+@dataclass(frozen=True)
+class BodyGrid:
+    """Cells of a run: contact ``window`` (nx, ny), ``body`` grid (n1, n2), ``nz`` layers.
+
+    ``origin`` is the body index of the window's first cell when the load is at the origin.
+    """
+
+    window: tuple[int, int]
+    body: tuple[int, int]
+    nz: int
+    origin: tuple[int, int] = (0, 0)
+
+
+def plan_steps(load_path: Iterable[Any]) -> list[StepPlan]:
+    """Expand load-path segments into increments (load positions exact, not snapped to cells).
+
+    Raises
+    ------
+    SacflowError
+        When a load segment moves the load (``at``) while it is loaded.
+    """
+    steps: list[StepPlan] = []
+    load, pos = 0.0, (0.0, 0.0)
+    for index, seg in enumerate(load_path):
+        if seg.kind in ("load", "unload"):
+            if getattr(seg, "at", None) is not None:
+                if load > 0.0 and tuple(seg.at) != pos:
+                    raise SacflowError(
+                        f"load_path.{index}.at: the load cannot jump while loaded; "
+                        "use a roll segment to move it"
+                    )
+                pos = (float(seg.at[0]), float(seg.at[1]))
+            start = load
+            for k in range(1, seg.increments + 1):
+                load = start + (seg.to - start) * k / seg.increments
+                steps.append(StepPlan(index, load, pos))
+        elif seg.kind == "hold":
+            steps.extend(StepPlan(index, load, pos) for _ in range(seg.increments))
+        elif seg.kind == "roll":
+            start = pos
+            for k in range(1, seg.steps + 1):
+                frac = k / seg.steps
+                pos = (
+                    start[0] + seg.distance * seg.direction[0] * frac,
+                    start[1] + seg.distance * seg.direction[1] * frac,
+                )
+                steps.append(StepPlan(index, load, pos))
+    return steps
+
+
+def body_grid(case: Any, steps: list[StepPlan] | None = None) -> BodyGrid:
+    """The body-fixed grid of ``case``: the window swept along its load positions.
+
+    Each position is placed on its nearest cell; the origin is always covered. ``steps`` is the
+    expanded load path when the caller has it (default: :func:`plan_steps` of the case's).
+    """
+    steps = plan_steps(case.load_path) if steps is None else steps
+    nx, ny = case.grid.nx, case.grid.ny
+    positions = np.array([s.position for s in steps] + [(0.0, 0.0)])
+    cells = np.rint(positions / np.array(case.cell_size())).astype(int)
+    low, high = cells.min(axis=0), cells.max(axis=0)
+    body = (int(nx + high[0] - low[0]), int(ny + high[1] - low[1]))
+    return BodyGrid((nx, ny), body, int(case.grid.nz), (int(-low[0]), int(-low[1])))
+
+
+def auto_depth(case: Any, law: Any, a: float, p0: float) -> float:
+    """Depth of the cuboid box: where the Hertz von Mises stress at max load falls below yield.
+
+    Uses the on-axis Hertz field (the maximum of von Mises is on the axis for ν ≈ 0.3) at the
+    maximum load (contact radius ``a``, peak pressure ``p0``), the initial yield stress of the
+    runtime hardening ``law`` (None for an elastic body) and the solver's ``plastic_margin``;
+    never less than the contact radius. Elastic bodies get :data:`ELASTIC_DEPTH` ``a`` (the
+    stored stress field).
+    """
+    if law is None:
+        return ELASTIC_DEPTH * a
+    z = _DEPTH_SAMPLES * a
+    s_r, s_z = hertz_axis_stress(z, a, p0, case.body.nu)
+    vm = np.abs(s_r - s_z)
+    sy = law.yield_stress(np.zeros_like(z), z)
+    margin = case.solver.plastic_margin
+    above = np.nonzero(vm > sy * (1.0 - margin))[0]
+    if above.size == 0:
+        return a
+    return max(a, float(z[above[-1]]) * (1.0 + margin))

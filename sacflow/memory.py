@@ -1,0 +1,383 @@
+"""Memory a run needs, estimated from the case before anything is allocated (issue #14).
+
+A grid too large for the machine must be refused with a clear message by ``sacflow validate``
+and before ``sacflow run`` allocates its operators, not end in numpy's ``_ArrayMemoryError``
+half-way through the set-up. :func:`estimate_memory` derives the peak resident memory of a run
+from the shapes of the arrays the solver allocates (:class:`sacflow.solver.Simulation`):
+
+* the contact compliance (DC-FFT on the contact window, :class:`~sacflow.kernels.fft.Convolution`)
+  and the contact solver's window arrays (:mod:`sacflow.contact`);
+* the pressure → stress operator on the body grid: ``6 nz`` complex kernel spectra on the
+  zero-padded body grid, and while it is built the kernel coefficients on that grid;
+* for a plastic body, the eigenstrain operator (:class:`~sacflow.kernels.eigenstrain.
+  HalfSpaceEigenstrain`): its persistent spectra and buffers
+  (:func:`~sacflow.kernels.eigenstrain.kernel_bytes`) and the transient of its set-up (the
+  spectra of the pair kernels kept until their transposes are checked);
+* the solver state (plastic strain, residual stress), the working arrays of one increment's
+  fixed point, the Anderson history (:mod:`sacflow.anderson`) and the GMRES basis of the
+  Newton–Krylov fallback;
+* the fields of the per-step states handed to the store: the state being written and the next
+  one being made (the runner's loop holds one while the solver makes the next);
+* the interpreter and its libraries (numpy, scipy, pyfftw, xarray, netCDF4, and numba for
+  plastic bodies), measured.
+
+The body grid of a rolling case is the contact window swept along the track
+(:func:`body_grid`). The estimate is for the case as given; if plastic strain reaches the bottom
+of the cuboid box, ``sacflow run`` deepens it 1.5 times (more layers, more memory) and runs
+again. Calibration (peak resident memory, ``/usr/bin/time -v sacflow run``, 2-core machine):
+see :data:`LIBRARY_BYTES` and the module tests.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+from sacflow.errors import GridTooLargeError
+from sacflow.layout import BodyGrid, body_grid
+
+__all__ = [
+    "BodyGrid",
+    "MemoryEstimate",
+    "MemoryItem",
+    "available_memory",
+    "body_grid",
+    "check_memory",
+    "estimate_memory",
+]
+
+#: Bytes of a float64 and of a complex128.
+FLOAT, COMPLEX = 8, 16
+#: Tensor components of a stress or strain field.
+COMPONENTS = 6
+#: Resident memory of the interpreter and the libraries a run loads, before any grid array:
+#: measured peak of ``sacflow run`` on a 16 × 16 × 2 case (hertz-elastic: 79 MB; the plastic
+#: nanoindentation-650mN, which loads numba and llvmlite as well: 211 MB).
+LIBRARY_BYTES = {"elastic": 80 * 2**20, "plastic": 215 * 2**20}
+#: Window-sized arrays of the contact solver (pressure, gap, conjugate direction, displacement,
+#: its update, masks, the initial gap and the result's copies; :mod:`sacflow.contact`).
+CONTACT_ARRAYS = 14
+#: Volume tensor fields of the plastic state (plastic strain, residual stress) and of one
+#: increment's fixed point besides the Anderson history and the GMRES basis
+#: (:meth:`sacflow.solver.Simulation._fixed_point`): the iterate, the pressure stress and its
+#: reshaped copy, the residual stress of the iterate and their sum, the trial stress and
+#: ``2μ x``, the returned increment ``G(x)``, the last evaluation's fields.
+PLASTIC_STATE_TENSORS = 2
+FIXED_POINT_TENSORS = 9
+#: Tensor fields the Anderson mixer holds besides its ``2 × depth`` differences: the last
+#: iterate and residual, the residual and the mixed iterate (:class:`sacflow.anderson.
+#: AndersonMixer`).
+ANDERSON_EXTRA = 4
+#: GMRES restart of the Newton–Krylov fallback (``restart=30`` in the solver): when Anderson
+#: stalls, the Krylov basis holds ``restart + 1`` vectors of the plastic-strain size, besides
+#: the line search's trial iterate and the return's tangent. Counted although the measured runs
+#: never needed it: a run that stalls must not then run out of memory.
+GMRES_RESTART = 30
+NEWTON_EXTRA = 3
+#: Tensor (6 components) and scalar volume fields of one state with volume output
+#: (:meth:`sacflow.solver.Simulation._volume_fields` and ``_state``): plastic strain, residual
+#: stress and stress; equivalent plastic strain, von Mises and yield stress; a plastic body's
+#: state adds the restart copies of the plastic strain and the equivalent plastic strain.
+STATE_TENSORS = {"elastic": 3, "plastic": 4}
+STATE_SCALARS = {"elastic": 3, "plastic": 4}
+#: Surface arrays of one state (five stored surface fields, two restart arrays, work copies).
+STATE_SURFACES = 9
+#: States alive at once: the one the runner holds while the solver makes the next (or while
+#: the store consolidates the run, reading one stored step at a time).
+STATES_ALIVE = 2
+#: Transient of the eigenstrain operator's set-up above its persistent arrays, in complex
+#: lateral planes per depth frequency: the pair-kernel spectra kept until their transposes are
+#: checked, the closed form's field, the layer kernels before their depth transform (measured:
+#: 8.5 for 64 × 64 × 24 cuboids, peak of tracemalloc during the set-up).
+EIGEN_SETUP_PLANES = 10
+#: Where Linux says how much memory can be given to a process without swapping.
+MEMINFO = Path("/proc/meminfo")
+#: The memory limit and use of this process's cgroup (v2), when it has one.
+CGROUP_LIMIT = Path("/sys/fs/cgroup/memory.max")
+CGROUP_USAGE = Path("/sys/fs/cgroup/memory.current")
+#: Items named in the error message.
+SHOWN_ITEMS = 3
+
+
+@dataclass(frozen=True)
+class MemoryItem:
+    """One part of the estimate: a short name, its bytes and what it holds."""
+
+    name: str
+    nbytes: int
+    what: str
+
+
+@dataclass(frozen=True)
+class MemoryEstimate:
+    """Estimated peak resident memory of a run [bytes] and its parts.
+
+    Attributes
+    ----------
+    total : int
+        Estimated peak resident memory of the run process [bytes].
+    items : tuple of MemoryItem
+        The parts, largest first; they add up to ``total``.
+    grid : BodyGrid
+        The grid the estimate is for.
+    """
+
+    total: int
+    items: tuple[MemoryItem, ...]
+    grid: BodyGrid
+
+    def biggest(self, count: int = SHOWN_ITEMS) -> tuple[MemoryItem, ...]:
+        """The ``count`` largest items."""
+        return self.items[:count]
+
+    def short(self) -> str:
+        """``"1.2 GiB (largest: eigenstrain operator 800 MiB)"``, for the validate line."""
+        top = self.items[0]
+        return f"{format_bytes(self.total)} (largest: {top.name} {format_bytes(top.nbytes)})"
+
+
+def format_bytes(nbytes: float) -> str:
+    """Bytes in binary units with three significant digits (``"412 MiB"``, ``"1.53 TiB"``)."""
+    value = float(nbytes)
+    for unit in ("B", "KiB", "MiB", "GiB", "TiB"):
+        if value < 1000.0 or unit == "TiB":
+            return f"{value:.3g} {unit}" if unit != "B" else f"{int(value)} B"
+        value /= 1024.0
+    raise AssertionError("unreachable")  # pragma: no cover
+
+
+def _real_fft_bytes(batch: int, n1: int, n2: int) -> int:
+    """Buffers of a :class:`~sacflow.kernels.fft.RealFFT` of ``batch`` real (n1, n2) planes."""
+    return batch * (FLOAT * n1 * n2 + COMPLEX * n1 * (n2 // 2 + 1))
+
+
+def _contact(grid: BodyGrid) -> MemoryItem:
+    """Compliance spectra and buffers on the contact window, the contact solver's arrays."""
+    from sacflow.kernels.fft import padded_length
+
+    nx, ny = grid.window
+    p1, p2 = padded_length(nx, nx), padded_length(ny, ny)
+    spectra = COMPLEX * p1 * (p2 // 2 + 1)
+    nbytes = spectra + 2 * _real_fft_bytes(1, p1, p2) + CONTACT_ARRAYS * FLOAT * nx * ny
+    return MemoryItem("contact operator", nbytes,
+                      f"compliance spectra and contact arrays on the {nx} × {ny} window")
+
+
+def _pressure_stress(grid: BodyGrid) -> tuple[MemoryItem, MemoryItem]:
+    """The pressure → stress operator (spectra, buffers) and the coefficients of its set-up."""
+    from sacflow.kernels.fft import padded_length
+
+    n1, n2 = grid.body
+    p1, p2 = padded_length(n1, n1), padded_length(n2, n2)
+    outputs = COMPONENTS * grid.nz
+    spectra = outputs * COMPLEX * p1 * (p2 // 2 + 1)
+    buffers = _real_fft_bytes(1, p1, p2) + 2 * _real_fft_bytes(COMPONENTS, p1, p2)
+    operator = MemoryItem("pressure-stress operator", spectra + buffers,
+                          f"{outputs} kernel spectra on the {p1} × {p2} padded body grid")
+    setup = MemoryItem("pressure-stress set-up", outputs * FLOAT * p1 * p2,
+                       "its kernel coefficients, while they are transformed")
+    return operator, setup
+
+
+def _eigenstrain(grid: BodyGrid) -> tuple[MemoryItem, MemoryItem]:
+    """The eigenstrain operator's persistent spectra and buffers, and its set-up transient.
+
+    Persistent (:class:`~sacflow.kernels.eigenstrain.HalfSpaceEigenstrain`), per depth
+    frequency: the 21 real pair spectra (10.5 complex planes), the 18 complex planes of the
+    surface and correction kernels, the two (6, L1, L2) real and complex transform buffers.
+    """
+    from sacflow.kernels.eigenstrain import _padded
+
+    shape = (*grid.body, grid.nz)
+    l1, l2, n = _padded(shape)
+    plane, real_plane = COMPLEX * l1 * (l2 // 2 + 1), FLOAT * l1 * l2
+    persistent = (n + 1) * ((10.5 + 18 + 2 * COMPONENTS) * plane
+                            + 2 * COMPONENTS * real_plane)
+    operator = MemoryItem(
+        "eigenstrain operator", int(persistent),
+        f"residual stress/displacement spectra of {shape[0]} × {shape[1]} × {shape[2]} cuboids "
+        f"({n + 1} depth frequencies of {l1} × {l2})",
+    )
+    setup = MemoryItem("eigenstrain set-up", (n + 1) * EIGEN_SETUP_PLANES * plane,
+                       "kernel fields and spectra while the operator is built")
+    return operator, setup
+
+
+def _tensor_bytes(grid: BodyGrid) -> int:
+    """Bytes of one volume tensor field (6 components) on the body grid."""
+    return COMPONENTS * FLOAT * grid.body[0] * grid.body[1] * grid.nz
+
+
+def _solver_state(grid: BodyGrid, case) -> tuple[MemoryItem, MemoryItem]:
+    """Plastic state, one increment's fixed point and Anderson history; the GMRES basis."""
+    tensor = _tensor_bytes(grid)
+    depth = case.solver.anderson_depth if case.solver.acceleration == "anderson" else 0
+    fields = (PLASTIC_STATE_TENSORS + 1 / COMPONENTS + FIXED_POINT_TENSORS
+              + 2 * depth + ANDERSON_EXTRA)
+    state = MemoryItem(
+        "solver state", int(fields * tensor),
+        f"plastic state, fixed point and Anderson history (depth {depth}): "
+        f"{fields:.0f} volume tensor fields",
+    )
+    krylov = GMRES_RESTART + 1 + NEWTON_EXTRA
+    newton = MemoryItem("Newton-Krylov basis", krylov * tensor,
+                        f"{krylov} volume tensor fields when the fixed point stalls")
+    return state, newton
+
+
+def _states(grid: BodyGrid, plastic: bool) -> MemoryItem:
+    """Per-step fields handed to the store (:data:`STATES_ALIVE` states at once)."""
+    n1, n2 = grid.body
+    kind = "plastic" if plastic else "elastic"
+    scalar = FLOAT * n1 * n2 * grid.nz
+    one = ((STATE_TENSORS[kind] * COMPONENTS + STATE_SCALARS[kind]) * scalar
+           + STATE_SURFACES * FLOAT * n1 * n2)
+    return MemoryItem(
+        "per-step fields", STATES_ALIVE * one,
+        f"the fields of the step being stored and of the next ({n1} × {n2} × {grid.nz} cells)",
+    )
+
+
+def estimate_memory(case) -> MemoryEstimate:
+    """Estimated peak resident memory of running ``case`` [bytes], by item.
+
+    The peak is that of the heavier of two phases: the set-up (operators built, with the
+    transient of the last one built) and the increments (operators, solver state, fixed point,
+    Anderson history, GMRES basis, per-step fields). The items are those of that phase.
+
+    Parameters
+    ----------
+    case : sacflow.schema.Case
+        The validated case.
+
+    Returns
+    -------
+    MemoryEstimate
+        The total and its items (largest first). Derived from the array shapes the solver
+        allocates (module docstring); calibrated against measured peaks, on the high side
+        (the GMRES basis of a stalled fixed point is counted).
+    """
+    from sacflow.schema import Elastic
+
+    grid = body_grid(case)
+    plastic = not isinstance(case.body.hardening, Elastic)
+    libraries = MemoryItem(
+        "libraries", LIBRARY_BYTES["plastic" if plastic else "elastic"],
+        "the interpreter, numpy, scipy, pyfftw, xarray, netCDF4" + (", numba" if plastic else ""),
+    )
+    contact = _contact(grid)
+    stress_op, stress_setup = _pressure_stress(grid)
+    base = [libraries, contact, stress_op]
+    phases = [[*base, stress_setup]]  # set-up of the pressure-stress operator
+    running = [*base, _states(grid, plastic)]
+    if plastic:
+        eigen_op, eigen_setup = _eigenstrain(grid)
+        phases.append([*base, eigen_op, eigen_setup])
+        running += [eigen_op, *_solver_state(grid, case)]
+    phases.append(running)
+    items = max(phases, key=lambda phase: sum(item.nbytes for item in phase))
+    items = sorted(items, key=lambda item: item.nbytes, reverse=True)
+    return MemoryEstimate(sum(item.nbytes for item in items), tuple(items), grid)
+
+
+def _read_int(path: Path) -> int | None:
+    """An integer file of the kernel (cgroup files), or None (absent, ``max``, unreadable)."""
+    try:
+        text = path.read_text().strip()
+    except OSError:
+        return None
+    return int(text) if text.isdigit() else None
+
+
+def available_memory() -> int:
+    """Memory [bytes] this process can still use without swapping.
+
+    Linux's ``MemAvailable`` (``/proc/meminfo``: free memory plus what the page cache and
+    reclaimable slabs can give back), else the available physical pages (``os.sysconf``);
+    never more than what is left below the limit of this process's cgroup (a container's or a
+    batch job's memory limit).
+    """
+    available = _meminfo_available()
+    if available is None:
+        available = _sysconf_available()
+    limit, usage = _read_int(CGROUP_LIMIT), _read_int(CGROUP_USAGE)
+    if limit is not None:
+        available = min(available, max(limit - (usage or 0), 0))
+    return available
+
+
+def _meminfo_available() -> int | None:
+    """``MemAvailable`` of :data:`MEMINFO` [bytes], or None without it."""
+    try:
+        with open(MEMINFO) as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024  # kB
+    except (OSError, ValueError, IndexError):
+        pass
+    return None
+
+
+def _sysconf_available() -> int:
+    """Available (else all) physical pages times the page size [bytes]."""
+    page = os.sysconf("SC_PAGE_SIZE")
+    for name in ("SC_AVPHYS_PAGES", "SC_PHYS_PAGES"):
+        try:
+            pages = os.sysconf(name)
+        except (ValueError, OSError):
+            continue
+        if pages > 0:
+            return int(pages) * int(page)
+    raise GridTooLargeError("cannot tell how much memory this machine has")  # pragma: no cover
+
+
+def check_memory(case, available: int | None = None) -> MemoryEstimate:
+    """Estimate the memory of ``case`` and refuse it when the machine does not have it.
+
+    Parameters
+    ----------
+    case : sacflow.schema.Case
+        The validated case.
+    available : int, optional
+        Bytes available; default :func:`available_memory` now.
+
+    Returns
+    -------
+    MemoryEstimate
+        The estimate, when it fits.
+
+    Raises
+    ------
+    GridTooLargeError
+        When the estimate exceeds the available memory; the message gives both, the largest
+        items and the fix (fewer cells, a shorter rolled track).
+    """
+    estimate = estimate_memory(case)
+    available = available_memory() if available is None else int(available)
+    if estimate.total > available:
+        raise GridTooLargeError(_too_large(estimate, available))
+    return estimate
+
+
+def _too_large(estimate: MemoryEstimate, available: int) -> str:
+    """One screen: the estimate, the memory available, the largest items and the fix."""
+    grid = estimate.grid
+    lines = [
+        f"the run needs about {format_bytes(estimate.total)} of memory, "
+        f"{format_bytes(available)} available; the largest parts:"
+    ]
+    width = max(len(item.name) for item in estimate.biggest())
+    lines += [
+        f"  {item.name:<{width}}  {format_bytes(item.nbytes):>9}  {item.what}"
+        for item in estimate.biggest()
+    ]
+    track = "" if grid.body == grid.window else (
+        f" or a shorter rolled track (the body grid is {grid.body[0]} × {grid.body[1]} cells "
+        f"for a {grid.window[0]} × {grid.window[1]} window)"
+    )
+    lines.append(
+        f"use fewer cells: grid.nx, grid.ny (now {grid.window[0]}, {grid.window[1]}) and grid.nz "
+        f"(now {grid.nz}){track}; memory grows with nx · ny · nz"
+    )
+    return "\n".join(lines)
