@@ -117,9 +117,10 @@ def stop_fork_server() -> None:
 
 def warm_cluster(campaign, folder: Path, workers: int) -> float:
     """Wall time of the campaign on a running cluster whose workers have run it once already."""
-    from sacflow.campaign import _client, run_campaign
+    from sacflow.campaign import run_campaign
+    from sacflow.campaign.cluster import connect
 
-    with _client(None, workers, workers) as client:
+    with connect(None, workers, workers) as client:
         address = client.scheduler.address
         run_campaign(campaign, folder / "warm-up", scheduler=address, progress=False)
         start = time.perf_counter()
@@ -131,9 +132,9 @@ def cluster_start(workers: int) -> float:
     """Start and stop sacflow's local cluster in a fresh process (its fork server is cold)."""
     code = (
         "import time\n"
-        "from sacflow.campaign import _client\n"
+        "from sacflow.campaign.cluster import connect\n"
         "start = time.perf_counter()\n"
-        f"with _client(None, {workers}, {workers}) as client:\n"
+        f"with connect(None, {workers}, {workers}) as client:\n"
         "    client.submit(sum, [1, 2]).result()\n"
         "print(time.perf_counter() - start)\n"
     )

@@ -1,5 +1,7 @@
-"""sacflow: three-dimensional semi-analytical elastic-plastic contact code (Jacq et al., ASME J.
-Tribol. 124 (2002) 653) and the xarray/netCDF experiment pipeline around it.
+"""sacflow: a three-dimensional semi-analytical elastic-plastic contact code.
+
+The code of Jacq et al., ASME J. Tribol. 124 (2002) 653, and the xarray/netCDF experiment
+pipeline around it.
 
 Notebook API: :func:`load_case`, :func:`run`, :func:`open_run`, and the eigenstrain operators
 :func:`residual_stress`, :func:`residual_displacement`.

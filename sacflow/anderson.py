@@ -1,5 +1,7 @@
-"""Anderson mixing for fixed points x = G(x) (type II, Walker & Ni, SIAM J. Numer. Anal. 49
-(2011) 1715, doi:10.1137/10078356X).
+"""Anderson mixing for fixed points x = G(x).
+
+Type II Anderson acceleration: Walker & Ni, SIAM J. Numer. Anal. 49 (2011) 1715,
+doi:10.1137/10078356X.
 
 Used by the solver to accelerate the plastic-strain fixed point of seed §1.7 (Figs. 4–5), which
 plain (Picard) iteration solves in hundreds of sweeps (seed §2.5).

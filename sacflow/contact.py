@@ -111,24 +111,11 @@ def _solve(
 ) -> ContactResult:
     """Body of :func:`solve_contact` (same arguments, run with one BLAS thread)."""
     h = np.asarray(h, dtype=float)
+    unloaded = _without_contact(h, load, approach, initial_pressure)
+    if unloaded is not None:
+        return unloaded
+    p = _start_pressure(h, cell_area, load, approach, initial_pressure)
     load_control = load is not None
-    if load_control and load <= 0.0:
-        # No load: the counter-body rests on the surface, touching its highest point (the lowest
-        # initial separation); after an indentation this approach is the residual print depth.
-        zero = np.zeros_like(h)
-        lowest = float(h.min())
-        return ContactResult(zero, zero, h - lowest, lowest, 0.0, 0, 0.0)
-    if initial_pressure is not None and np.any(initial_pressure > 0):
-        p = np.maximum(np.asarray(initial_pressure, dtype=float), 0.0).copy()
-    elif load_control:
-        p = np.ones_like(h)  # uniform start: the iteration shrinks the contact set
-    else:
-        p = np.where(h < approach, 1.0, 0.0)  # start from the geometric overlap
-        if not p.any():
-            zero = np.zeros_like(h)
-            return ContactResult(zero, zero, h - approach, float(approach), 0.0, 0, 0.0)
-    if load_control:
-        p *= load / (cell_area * p.sum())
 
     # Flat views and float masks: dot products (BLAS) instead of boolean gathers.
     shape = h.shape
@@ -144,12 +131,8 @@ def _solve(
     gap = np.empty_like(h)
     for iteration in range(max_iter + 1):
         np.add(h, u, out=gap)
-        mask = (p > 0.0).astype(float)
-        n_contact = mask.sum()
-        if n_contact == 0.0:
-            mask = (gap <= gap.min()).astype(float)
-            n_contact = mask.sum()
-        delta = float(gap @ mask) / n_contact if load_control else float(approach)
+        mask, n_contact = _contact_set(p, gap)
+        delta = float(gap @ mask) / n_contact if approach is None else float(approach)
         gap -= delta
         g = gap * mask
         error = _gap_error(gap, g, mask, scale)
@@ -159,34 +142,13 @@ def _solve(
             raise ConvergenceError(
                 "contact", step=step, residual=error, tolerance=tol, iterations=max_iter
             )
-        g_norm = float(g @ g)
-        if conjugate:
-            t *= (g_norm / g_norm_old) * mask
-            t += g
-        else:
-            t[:] = g
-        g_norm_old = g_norm
+        g_norm_old = _search_direction(t, g, mask, conjugate, g_norm_old)
         r = compliance(t.reshape(shape)).ravel()
-        r_t = float(r @ t)
-        if load_control:
-            r_t -= float(r @ mask) / n_contact * float(t.sum())
-        tau = float(g @ t) / r_t if r_t != 0.0 else 0.0
-        p -= tau * t
-        clipped = bool(p.min() < 0.0)
-        np.maximum(p, 0.0, out=p)
-        overlap = (p == 0.0) & (gap < 0.0)
-        conjugate = not overlap.any()
-        if not conjugate:
-            p[overlap] -= tau * gap[overlap]
+        tau = _step_length(r, t, g, mask, n_contact if load_control else None)
+        clipped, conjugate = _descend(p, t, gap, tau)
         rescale = 1.0
-        if load_control:
-            total = p.sum() * cell_area
-            if total <= 0.0:
-                raise ConvergenceError(
-                    "contact", step=step, residual=np.inf, tolerance=tol, iterations=iteration
-                )
-            rescale = load / total
-            p *= rescale
+        if load is not None:
+            rescale = _rescale_to_load(p, load, cell_area, step, tol, iteration)
         # u = K p by linearity (u ← s (u − τ K t)) when the step was neither clipped nor
         # corrected on overlapping cells; an exact FFT evaluation otherwise and periodically.
         if conjugate and not clipped and exact_age < _REFRESH_EVERY:
@@ -196,9 +158,126 @@ def _solve(
         else:
             u = compliance(p.reshape(shape)).ravel()
             exact_age = 0
-    h, p = h.reshape(shape), p.reshape(shape)
-    u = u.reshape(shape)  # consistent with p: exact or a few algebraic updates old
-    gap = gap.reshape(shape)  # h + u − δ of the accepted pressure (error < tol)
+    # u is consistent with p (exact or a few algebraic updates old); gap is h + u − δ of the
+    # accepted pressure (error < tol).
+    return _result(p.reshape(shape), u.reshape(shape), gap.reshape(shape), delta, cell_area,
+                   iteration, error)
+
+
+def _without_contact(
+    h: np.ndarray, load: float | None, approach: float | None,
+    initial_pressure: np.ndarray | None,
+) -> ContactResult | None:
+    """Return the result when nothing touches (no load, or an approach short of ``min h``)."""
+    if load is not None and load <= 0.0:
+        # No load: the counter-body rests on the surface, touching its highest point (the lowest
+        # initial separation); after an indentation this approach is the residual print depth.
+        zero = np.zeros_like(h)
+        lowest = float(h.min())
+        return ContactResult(zero, zero, h - lowest, lowest, 0.0, 0, 0.0)
+    warm = initial_pressure is not None and np.any(initial_pressure > 0)
+    if approach is not None and not warm and not np.any(h < approach):
+        zero = np.zeros_like(h)
+        return ContactResult(zero, zero, h - approach, float(approach), 0.0, 0, 0.0)
+    return None
+
+
+def _start_pressure(
+    h: np.ndarray, cell_area: float, load: float | None, approach: float | None,
+    initial_pressure: np.ndarray | None,
+) -> np.ndarray:
+    """Return the first pressure: the warm start, else uniform (load) or the overlap (approach).
+
+    Under load control it is scaled to carry the load.
+    """
+    if initial_pressure is not None and np.any(initial_pressure > 0):
+        p = np.maximum(np.asarray(initial_pressure, dtype=float), 0.0).copy()
+    elif load is not None:
+        p = np.ones_like(h)  # uniform start: the iteration shrinks the contact set
+    else:
+        p = np.where(h < approach, 1.0, 0.0)  # start from the geometric overlap
+    if load is not None:
+        p *= load / (cell_area * p.sum())
+    return p
+
+
+def _contact_set(p: np.ndarray, gap: np.ndarray) -> tuple[np.ndarray, float]:
+    """Return the contact set as a float mask and its size.
+
+    The cells under pressure; with none, the cells of the smallest gap.
+    """
+    mask = (p > 0.0).astype(float)
+    n_contact = mask.sum()
+    if n_contact == 0.0:
+        mask = (gap <= gap.min()).astype(float)
+        n_contact = mask.sum()
+    return mask, n_contact
+
+
+def _search_direction(
+    t: np.ndarray, g: np.ndarray, mask: np.ndarray, conjugate: bool, g_norm_old: float
+) -> float:
+    """Update the direction ``t`` in place: ``g``, conjugated with the last when allowed.
+
+    Returns ``|g|²``, the next call's ``g_norm_old``.
+    """
+    g_norm = float(g @ g)
+    if conjugate:
+        t *= (g_norm / g_norm_old) * mask
+        t += g
+    else:
+        t[:] = g
+    return g_norm
+
+
+def _step_length(
+    r: np.ndarray, t: np.ndarray, g: np.ndarray, mask: np.ndarray, n_contact: float | None
+) -> float:
+    """Return the step τ along ``t`` (``r = K t``); ``n_contact`` given under load control.
+
+    Under load control the mean of ``r`` over the contact set is removed (δ eliminated).
+    """
+    r_t = float(r @ t)
+    if n_contact is not None:
+        r_t -= float(r @ mask) / n_contact * float(t.sum())
+    return float(g @ t) / r_t if r_t != 0.0 else 0.0
+
+
+def _descend(p: np.ndarray, t: np.ndarray, gap: np.ndarray, tau: float) -> tuple[bool, bool]:
+    """Move ``p`` by ``−τ t`` in place, clip it at 0, press the overlapping free cells.
+
+    Returns ``(clipped, conjugate)``: whether the clip changed a cell, and whether no free cell
+    overlaps (the next direction may then be conjugated).
+    """
+    p -= tau * t
+    clipped = bool(p.min() < 0.0)
+    np.maximum(p, 0.0, out=p)
+    overlap = (p == 0.0) & (gap < 0.0)
+    conjugate = not overlap.any()
+    if not conjugate:
+        p[overlap] -= tau * gap[overlap]
+    return clipped, conjugate
+
+
+def _rescale_to_load(
+    p: np.ndarray, load: float, cell_area: float, step: int, tol: float, iteration: int
+) -> float:
+    """Scale ``p`` in place to carry ``load``; return the factor."""
+    total = p.sum() * cell_area
+    if total <= 0.0:
+        raise ConvergenceError(
+            "contact", step=step, residual=np.inf, tolerance=tol, iterations=iteration
+        )
+    rescale = load / total
+    p *= rescale
+    return rescale
+
+
+def _result(
+    p: np.ndarray, u: np.ndarray, gap: np.ndarray, delta: float, cell_area: float,
+    iteration: int, error: float,
+) -> ContactResult:
+    """Return the converged state, the gap set to 0 on the contact set and ≥ 0 off it."""
     contact = p > 0.0
     np.maximum(gap, 0.0, out=gap, where=~contact)
     gap[contact] = 0.0

@@ -43,7 +43,7 @@ _WHOLE_NUMBER = re.compile(r"[0-9]+")
 
 
 def _value(name: str) -> str | None:
-    """The stripped value of ``name``; None when unset or empty (the default applies)."""
+    """Return the stripped value of ``name``; None when unset or empty (the default applies)."""
     value = os.environ.get(name, "").strip()
     return value or None
 

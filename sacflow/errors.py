@@ -63,7 +63,8 @@ class ConvergenceError(SacflowError):
             f"(raise solver.{what}_max_iterations or refine the load increments)"
         )
 
-    def __reduce__(self):  # keep the exception picklable (dask workers send it back)
+    def __reduce__(self):
+        """Keep the exception picklable (dask workers send it back)."""
         return (
             type(self),
             (self.what, self.step, self.residual, self.tolerance, self.iterations),
@@ -99,7 +100,8 @@ class BoxTooShallowError(SacflowError):
             f"{new_nz} (sacflow run does this by itself)"
         )
 
-    def __reduce__(self):  # picklable for dask workers
+    def __reduce__(self):
+        """Keep the exception picklable (dask workers send it back)."""
         return (type(self), (self.step, self.depth, self.nz, self.new_depth, self.new_nz))
 
 

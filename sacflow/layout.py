@@ -69,26 +69,26 @@ def plan_steps(load_path: Iterable[Any]) -> list[StepPlan]:
                         "use a roll segment to move it"
                     )
                 pos = (float(seg.at[0]), float(seg.at[1]))
-            start = load
+            first_load = load
             for k in range(1, seg.increments + 1):
-                load = start + (seg.to - start) * k / seg.increments
+                load = first_load + (seg.to - first_load) * k / seg.increments
                 steps.append(StepPlan(index, load, pos))
         elif seg.kind == "hold":
             steps.extend(StepPlan(index, load, pos) for _ in range(seg.increments))
         elif seg.kind == "roll":
-            start = pos
+            first_pos = pos
             for k in range(1, seg.steps + 1):
                 frac = k / seg.steps
                 pos = (
-                    start[0] + seg.distance * seg.direction[0] * frac,
-                    start[1] + seg.distance * seg.direction[1] * frac,
+                    first_pos[0] + seg.distance * seg.direction[0] * frac,
+                    first_pos[1] + seg.distance * seg.direction[1] * frac,
                 )
                 steps.append(StepPlan(index, load, pos))
     return steps
 
 
 def body_grid(case: Any, steps: list[StepPlan] | None = None) -> BodyGrid:
-    """The body-fixed grid of ``case``: the window swept along its load positions.
+    """Return the body-fixed grid of ``case``: the window swept along its load positions.
 
     Each position is placed on its nearest cell; the origin is always covered. ``steps`` is the
     expanded load path when the caller has it (default: :func:`plan_steps` of the case's).

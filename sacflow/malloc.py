@@ -5,11 +5,8 @@ By default glibc maps every block above an adaptive threshold (128 kB at first, 
 array of that size is mapped again and each of its pages is zero-filled on first touch (a page
 fault). A case allocates and frees arrays of 1-50 MB every step, so a fresh process faults its
 working set in several times over during its first case, and pays it again for every array above
-the threshold in later ones. Measured on the 2-core development machine (a virtual machine, where
-a fault costs more than on bare metal), 128 × 128 × 16 elastic case, 6 increments: 100-150
-thousand page faults and 0.4-0.8 s of system time in a process's first case, 35-85 thousand and
-0.25-0.5 s in later ones; with the settings about 20 thousand (0.2-0.6 s), then under 5 thousand
-(0.15-0.35 s).
+the threshold in later ones. The settings cut the page faults several times over, and with them
+the system time of a case (``docs/performance.md``).
 
 :data:`MALLOC_ENV` fixes the threshold at glibc's 64-bit maximum (blocks up to 32 MB come from
 the heap) and keeps up to 1 GB of freed heap for the next arrays instead of returning it to the

@@ -128,7 +128,7 @@ class MemoryEstimate:
     grid: BodyGrid
 
     def biggest(self, count: int = SHOWN_ITEMS) -> tuple[MemoryItem, ...]:
-        """The ``count`` largest items."""
+        """Return the ``count`` largest items."""
         return self.items[:count]
 
     def short(self) -> str:
@@ -165,7 +165,7 @@ def _contact(grid: BodyGrid) -> MemoryItem:
 
 
 def _pressure_stress(grid: BodyGrid) -> tuple[MemoryItem, MemoryItem]:
-    """The pressure → stress operator (spectra, buffers) and the coefficients of its set-up."""
+    """Size the pressure → stress operator (spectra, buffers) and the coefficients of its set-up."""
     from sacflow.kernels.fft import padded_length
 
     n1, n2 = grid.body
@@ -181,7 +181,7 @@ def _pressure_stress(grid: BodyGrid) -> tuple[MemoryItem, MemoryItem]:
 
 
 def _eigenstrain(grid: BodyGrid) -> tuple[MemoryItem, MemoryItem]:
-    """The eigenstrain operator's persistent spectra and buffers, and its set-up transient.
+    """Size the eigenstrain operator's persistent spectra and buffers, and its set-up transient.
 
     Persistent (:class:`~sacflow.kernels.eigenstrain.HalfSpaceEigenstrain`), per depth
     frequency: the 21 real pair spectra (10.5 complex planes), the 18 complex planes of the
@@ -282,7 +282,7 @@ def estimate_memory(case) -> MemoryEstimate:
 
 
 def _read_int(path: Path) -> int | None:
-    """An integer file of the kernel (cgroup files), or None (absent, ``max``, unreadable)."""
+    """Read an integer file of the kernel (cgroup files), or None (absent, ``max``, unreadable)."""
     try:
         text = path.read_text().strip()
     except OSError:

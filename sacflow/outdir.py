@@ -97,7 +97,7 @@ def _existing_ancestor(folder: Path, where: str) -> Path:
 
 
 def _reason(exc: BaseException) -> str:
-    """The OS's short reason (``Permission denied``), with a hint for the common ones."""
+    """Return the OS's short reason (``Permission denied``), with a hint for the common ones."""
     if not isinstance(exc, OSError):
         return str(exc)
     reason = exc.strerror or str(exc)

@@ -132,9 +132,11 @@ class Swift(_Joint):
         self.scale = STRAIN_SCALES[law.strain_unit]
 
     def yield_stress(self, eqps, depth=None):
+        """Return B (C + s p)^n."""
         return self.B * (self.C + self.scale * np.asarray(eqps, dtype=float)) ** self.n
 
     def yield_and_slope(self, eqps, depth=None):
+        """Return σ_Y and its slope n s σ_Y / (C + s p) in one pass."""
         base = self.C + self.scale * np.asarray(eqps, dtype=float)
         y = self.B * base**self.n
         return y, (self.n * self.scale) * y / base
@@ -149,9 +151,11 @@ class Linear(HardeningLaw):
         self.sigma0, self.modulus = law.yield_stress, law.modulus
 
     def yield_stress(self, eqps, depth=None):
+        """Return σ_Y0 + H p."""
         return self.sigma0 + self.modulus * np.asarray(eqps, dtype=float)
 
     def slope(self, eqps, depth=None):
+        """Return H everywhere."""
         return np.full(np.shape(eqps), self.modulus)
 
 
@@ -168,9 +172,11 @@ class Elastic(HardeningLaw):
     """No plasticity: σ_Y = +inf, slope 0."""
 
     def yield_stress(self, eqps, depth=None):
+        """Return +inf everywhere (never yields)."""
         return np.full(np.shape(eqps), np.inf)
 
     def slope(self, eqps, depth=None):
+        """Return 0 everywhere."""
         return np.zeros(np.shape(eqps))
 
 
@@ -193,6 +199,7 @@ class Tabular(_Joint):
         self.slopes = np.diff(self.stress) / np.diff(self.strain)
 
     def yield_and_slope(self, eqps, depth=None):
+        """Return the interpolated stress and the slope of the segment on the right."""
         p = np.asarray(eqps, dtype=float)
         constant = self.beyond_last == "constant"
         if constant:
@@ -225,6 +232,7 @@ class DepthScaled(_Joint):
         return np.interp(np.asarray(depth, dtype=float), self.depth, self.factor)
 
     def yield_and_slope(self, eqps, depth=None):
+        """Return factor(x3) times the law's yield stress and slope."""
         y, h = self.law.yield_and_slope(eqps, depth)
         f = self.scale(depth)
         return f * y, f * h

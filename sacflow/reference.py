@@ -119,7 +119,7 @@ def hertz_pressure(r: ArrayLike, a: float, p0: float) -> NDArray[np.float64]:
 def hertz_surface_displacement(
     r: ArrayLike, a: float, p0: float, e_star: float
 ) -> NDArray[np.float64]:
-    r"""Normal surface displacement produced by the Hertz pressure (Johnson eqs. 3.41a, 3.42a).
+    r"""Compute the normal surface displacement of the Hertz pressure (Johnson eqs. 3.41a, 3.42a).
 
     Sum of both bodies' displacements (through E*), positive into the bodies:
 
@@ -326,8 +326,7 @@ def first_yield(nu: float) -> tuple[float, float, float]:
     vm_over_p0 : float
         Maximum von Mises stress over p0 (≈ 0.62).
     """
-
-    from scipy.optimize import minimize_scalar  # lazily: scipy.optimize costs ~0.3 s to import
+    from scipy.optimize import minimize_scalar  # lazily: slow to import, only needed here
 
     def neg_vm(zeta: float) -> float:
         sr, sz = hertz_axis_stress(zeta, 1.0, 1.0, nu)

@@ -48,8 +48,8 @@ class Simulation(Protocol):
     coords: GridCoords
     total_steps: int
 
-    def run(self) -> Iterator[State]:
-        """Yield one converged state per increment."""
+    def run(self, start: int = 0) -> Iterator[State]:
+        """Yield one converged state per increment (from ``start``, after ``restore``)."""
         ...
 
 
@@ -212,9 +212,14 @@ def _deeper(case: Case, exc: BoxTooShallowError) -> Case:
 
 
 def _default_factory() -> Callable[[Case], Simulation]:
+    """Return the solver's simulation factory (it reads a measured surface's heights)."""
     from sacflow.solver import Simulation as SolverSimulation  # the solver loads lazily
+    from sacflow.store import load_surface
 
-    return SolverSimulation
+    def factory(case: Case) -> Simulation:
+        return SolverSimulation(case, surface=load_surface(case))
+
+    return factory
 
 
 def _postfix(state: State) -> dict[str, str]:

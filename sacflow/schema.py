@@ -17,7 +17,7 @@ import hashlib
 import json
 import math
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 from pydantic_core import PydanticCustomError
@@ -91,7 +91,10 @@ StepCount = Annotated[int, Field(ge=1, le=MAX_STEPS)]
 #: Radius of curvature [m]; ``inf`` stands for a flat surface.
 Radius = Annotated[float, Field(gt=0)]
 PoissonRatio = Annotated[float, Field(gt=-1, lt=0.5)]
-FieldName = Literal[SCALAR_FIELDS + SURFACE_FIELDS + VOLUME_FIELDS]  # type: ignore[valid-type]
+if TYPE_CHECKING:
+    FieldName = str  # a Literal built at run time from the field tuples (pydantic checks it)
+else:
+    FieldName = Literal[SCALAR_FIELDS + SURFACE_FIELDS + VOLUME_FIELDS]
 
 
 def field_error(field: str, message: str) -> PydanticCustomError:
@@ -519,7 +522,7 @@ class Case(Model):
 
     # -- derived quantities ------------------------------------------------------------------
     def stored_fields(self) -> tuple[str, ...]:
-        """The variables the run file stores: ``output.fields``, or the default (see Output)."""
+        """Return the variables the run file stores: ``output.fields`` or the default (Output)."""
         if self.output.fields is not None:
             return tuple(self.output.fields)
         every = SCALAR_FIELDS + SURFACE_FIELDS + VOLUME_FIELDS
@@ -532,7 +535,7 @@ class Case(Model):
         return json.dumps(json.loads(self.model_dump_json()), sort_keys=True, separators=(",", ":"))
 
     def identity(self) -> dict[str, Any]:
-        """The fields that determine the stored numbers (:data:`NOT_IN_IDENTITY` left out).
+        """Return the fields that determine the stored numbers (:data:`NOT_IN_IDENTITY` left out).
 
         Nested dict of the case's JSON form without its name, description, thread count and
         compression level, and with a measured surface's file named by the SHA-256 of its
@@ -635,7 +638,7 @@ class Case(Model):
         return self
 
     def _check_layers(self) -> None:
-        """A given box depth must make cuboid layers of a usable shape (see MIN_LAYER_ASPECT)."""
+        """Check that a given box depth makes cuboid layers of a usable shape (MIN_LAYER_ASPECT)."""
         if self.grid.depth is None:
             return
         cell = min(self.cell_size())
@@ -804,7 +807,7 @@ class Campaign(Model):
 
 
 def _overlap(a: str, b: str) -> bool:
-    """True when one dotted path is the other or contains it (``grid`` and ``grid.nx``)."""
+    """Tell whether one dotted path is the other or contains it (``grid`` and ``grid.nx``)."""
     ka, kb = a.split("."), b.split(".")
     n = min(len(ka), len(kb))
     return ka[:n] == kb[:n]

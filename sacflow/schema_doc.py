@@ -45,7 +45,7 @@ choice. Any key can be overridden on the command line with `--set dotted.key=val
 
 
 def case_format_markdown() -> str:
-    """The Markdown reference of the case and campaign formats (``docs/case-format.md``)."""
+    """Return the Markdown reference of the case and campaign formats (``docs/case-format.md``)."""
     from sacflow.schema import Campaign, _finite_json, case_json_schema
 
     lines = [_HEADER]
@@ -86,7 +86,7 @@ def _sections(model: dict[str, Any], prefix: str, defs: dict, seen: set
 
 
 def _unwrap(prop: dict[str, Any]) -> tuple[dict[str, Any], bool]:
-    """The non-null part of an optional, and the items of an array (with ``True``)."""
+    """Return the non-null part of an optional, and the items of an array (with ``True``)."""
     if "anyOf" in prop:
         options = [p for p in prop["anyOf"] if p.get("type") != "null"]
         if len(options) == 1:
@@ -103,23 +103,29 @@ def _ref(node: dict[str, Any]) -> str | None:
 
 def _models(node: dict[str, Any], defs: dict) -> list[tuple[str, tuple[str, str] | None]]:
     """Models a node stands for: one ``$ref``, or the variants of a discriminated union."""
-    if _ref(node):
-        return [(_ref(node), None)]
+    ref = _ref(node)
+    if ref:
+        return [(ref, None)]
     if "discriminator" in node:
-        key = node["discriminator"]["propertyName"]
-        return [(_ref(option), (key, _const(defs[_ref(option)], key)))
-                for option in node["oneOf"]]
+        return list(_variants(node, defs))
     return []
 
 
+def _variants(node: dict[str, Any], defs: dict) -> list[tuple[str, tuple[str, str]]]:
+    """Return the variants of a discriminated union: model name, (discriminator, value)."""
+    key = node["discriminator"]["propertyName"]
+    names = [option["$ref"].rsplit("/", 1)[-1] for option in node["oneOf"]]
+    return [(name, (key, _const(defs[name], key))) for name in names]
+
+
 def _const(model: dict[str, Any], key: str) -> str:
-    """The value of the discriminator ``key`` of a union variant."""
+    """Return the value of the discriminator ``key`` of a union variant."""
     prop = model["properties"][key]
     return str(prop.get("const", (prop.get("enum") or [prop.get("default")])[0]))
 
 
 def _table(model: dict[str, Any], defs: dict) -> list[str]:
-    """The key table of one model."""
+    """Return the key table of one model."""
     required = set(model.get("required", ()))
     rows = ["| key | type | default | constraints | description |", "|---|---|---|---|---|"]
     for key, prop in model.get("properties", {}).items():
@@ -131,7 +137,7 @@ def _table(model: dict[str, Any], defs: dict) -> list[str]:
 
 
 def _type(prop: dict[str, Any], defs: dict) -> str:
-    """The type of a key as a TOML user reads it."""
+    """Return the type of a key as a TOML user reads it."""
     if "anyOf" in prop:
         options = [p for p in prop["anyOf"] if p.get("type") != "null"]
         text = " or ".join(_type(p, defs) for p in options)
@@ -140,7 +146,7 @@ def _type(prop: dict[str, Any], defs: dict) -> str:
         return "table"
     if "discriminator" in prop:
         key = prop["discriminator"]["propertyName"]
-        values = " \\| ".join(f'"{value}"' for _, (_, value) in _models(prop, defs))
+        values = " \\| ".join(f'"{value}"' for _, (_, value) in _variants(prop, defs))
         return f"table chosen by `{key}`: {values}"
     if "const" in prop:
         return json.dumps(prop["const"])
@@ -148,20 +154,25 @@ def _type(prop: dict[str, Any], defs: dict) -> str:
         if len(prop["enum"]) > INLINE_ENUM:
             return "name"
         return " \\| ".join(json.dumps(value) for value in prop["enum"])
-    kind = prop.get("type")
+    kind = prop.get("type", "")
     if kind == "array":
-        if "prefixItems" in prop:
-            return "[" + ", ".join(_type(p, defs) for p in prop["prefixItems"]) + "]"
-        items = prop.get("items", {})
-        if _ref(items) or "discriminator" in items:
-            return "array of tables"
-        return f"list of {_type(items, defs)}"
+        return _array_type(prop, defs)
     if kind == "object":
-        values = prop.get("additionalProperties")
-        return f"table of {_type(values, defs)}" if isinstance(values, dict) else "table"
+        value_type = prop.get("additionalProperties")
+        return f"table of {_type(value_type, defs)}" if isinstance(value_type, dict) else "table"
     if kind == "string" and prop.get("format") == "path":
         return "path"
     return SCALARS.get(kind, "any")
+
+
+def _array_type(prop: dict[str, Any], defs: dict) -> str:
+    """Return the type of an array key: a fixed tuple, an array of tables or a list."""
+    if "prefixItems" in prop:
+        return "[" + ", ".join(_type(p, defs) for p in prop["prefixItems"]) + "]"
+    items = prop.get("items", {})
+    if _ref(items) or "discriminator" in items:
+        return "array of tables"
+    return f"list of {_type(items, defs)}"
 
 
 def _constraints(prop: dict[str, Any], each: bool = False) -> str:
@@ -194,7 +205,7 @@ def _constraints(prop: dict[str, Any], each: bool = False) -> str:
 
 
 def _default(prop: dict[str, Any]) -> str:
-    """The default of an optional key."""
+    """Return the default of an optional key."""
     if "default" not in prop:
         return "required"
     value = prop["default"]
@@ -213,7 +224,7 @@ def _default(prop: dict[str, Any]) -> str:
 
 
 def _number(value: float | int) -> str:
-    """A bound or default as written in TOML (``1e-10``, ``0.5``, ``8``)."""
+    """Write a bound or default as in TOML (``1e-10``, ``0.5``, ``8``)."""
     if isinstance(value, int):
         return str(value)
     if 1e-3 <= abs(value) < 1e6 or value == 0:
@@ -222,7 +233,7 @@ def _number(value: float | int) -> str:
 
 
 def _prose(text: str) -> str:
-    """A model's docstring as one Markdown paragraph per paragraph (reST literals → code)."""
+    """Render a model's docstring as one Markdown paragraph per paragraph (reST literals → code)."""
     paragraphs = [" ".join(p.split()) for p in text.strip().split("\n\n")]
     return "\n\n".join(re.sub(r"``([^`]+)``", r"`\1`", p) for p in paragraphs if p)
 

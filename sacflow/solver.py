@@ -8,12 +8,13 @@ Per load increment the solver finds the plastic strain increment ``Δεp`` that 
 where ``R`` is the fully implicit J2 radial return (:func:`sacflow.plasticity.radial_return`),
 ``σ^pr`` the stress of the contact pressure, ``σ^r`` the residual stress and ``u3^r`` the
 residual surface displacement of the plastic strain (:mod:`sacflow.kernels.eigenstrain`). The
-seed nests two loops (contact ↔ plastic strain); here both are one fixed point accelerated by
-Anderson mixing (:mod:`sacflow.anderson`), the contact being re-solved (warm-started) at every
-evaluation (``solver.scheme = "nested"`` runs the seed's two loops instead; both converge to the
-same increment, the single loop with about a third of the residual-stress applications on the
-benchmarks). At convergence the seed's two criteria hold: the plastic strain increment and the
-residual displacement increment have stopped changing, and von Mises = σ_Y on plastic points.
+seed nests two loops (contact ↔ plastic strain); here both are one fixed point
+(:mod:`sacflow.nonlinear`: Anderson mixing, semismooth Newton when it stalls), the contact being
+re-solved (warm-started) at every evaluation (``solver.scheme = "nested"`` runs the seed's two
+loops instead; both converge to the same increment, the single loop with fewer residual-stress
+applications: ``benchmarks/elastic_plastic.py`` prints both counts). At convergence the seed's
+two criteria hold: the plastic strain increment and the residual displacement increment have
+stopped changing, and von Mises = σ_Y on plastic points.
 
 Load paths: ``load`` / ``unload`` segments change the normal load in equal increments, ``hold``
 repeats it; ``roll`` moves the load over the body-fixed grid (the plastic strain,
@@ -30,6 +31,7 @@ import math
 import warnings
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -40,6 +42,7 @@ from sacflow.geometry import curvature_gap, features_gap
 from sacflow.kernels.fft import Convolution
 from sacflow.kernels.surface import rectangle_displacement, rectangle_stress
 from sacflow.layout import StepPlan, auto_depth, body_grid, plan_steps
+from sacflow.nonlinear import Evaluation, FixedPointError, solve_fixed_point
 from sacflow.plasticity import (
     Elastic,
     ReturnTangent,
@@ -48,8 +51,11 @@ from sacflow.plasticity import (
     von_mises,
 )
 from sacflow.reference import composite_modulus
-from sacflow.state import GridCoords, State
+from sacflow.state import GridCoords, MeasuredSurface, State
 from sacflow.threads import single_threaded_blas
+
+if TYPE_CHECKING:
+    from sacflow.kernels.eigenstrain import HalfSpaceEigenstrain
 
 __all__ = ["Simulation", "StepPlan", "plan_steps"]  # the last two re-exported from layout
 
@@ -63,10 +69,13 @@ _TINY = 1e-300
 
 @dataclass(frozen=True)
 class Increment:
-    """Converged increment: window slices, its initial gap, the contact solution, the plastic
-    update ``(Δεp, Δp)`` (None when elastic), iteration counts, the final residuals of the
-    plasticity and coupling loops (0 when elastic) and, when the solver already has them, the
-    residual stress and surface displacement of ``εp_old + Δεp``."""
+    """A converged increment.
+
+    Window slices, its initial gap, the contact solution, the plastic update ``(Δεp, Δp)``
+    (None when elastic), iteration counts, the final residuals of the plasticity and coupling
+    loops (0 when elastic) and, when the solver already has them, the residual stress and
+    surface displacement of ``εp_old + Δεp``.
+    """
 
     window: tuple[slice, slice]
     geometry: np.ndarray
@@ -82,6 +91,14 @@ class Increment:
 class Simulation:
     """A case turned into grids and operators, run increment by increment.
 
+    Parameters
+    ----------
+    case : Case
+        The validated case.
+    surface : MeasuredSurface, optional
+        The heights of a measured surface (``surface.kind = "measured"``), as arrays: read them
+        with :func:`sacflow.store.load_surface`. Other surfaces need nothing.
+
     Attributes
     ----------
     coords : GridCoords
@@ -90,7 +107,7 @@ class Simulation:
         Number of increments of the load path.
     """
 
-    def __init__(self, case):
+    def __init__(self, case, surface: MeasuredSurface | None = None):
         self.case = case
         body, cb = case.body, case.counterbody
         self.law = hardening_from_schema(body.hardening)
@@ -126,7 +143,7 @@ class Simulation:
         x3 = (np.arange(self.nz) + 0.5) * self.dz
         self.coords = GridCoords(x1, x2, x3)
         self.threads = case.solver.fft_threads
-        self._heights = _measured_heights(case)
+        self._heights = _measured_heights(case, surface)
         self._build_operators()
         shape = (*self.body_shape, self.nz)
         self.plastic_strain = np.zeros((*shape, 6))
@@ -164,7 +181,7 @@ class Simulation:
             stresses, self.body_shape, self.body_shape, threads=self.threads,
             block=6,  # one depth layer (six components) per inverse transform
         )
-        self.eigen = None
+        self.eigen: HalfSpaceEigenstrain | None = None
         if self.plastic:  # elastic runs do without it (and without numba)
             from sacflow.kernels.eigenstrain import HalfSpaceEigenstrain
 
@@ -172,6 +189,13 @@ class Simulation:
                 (*self.body_shape, self.nz), (dx1, dx2, self.dz), self.E, self.nu,
                 threads=self.threads,
             )
+
+    @property
+    def _eigen(self) -> HalfSpaceEigenstrain:
+        """The eigenstrain operator (plastic bodies only)."""
+        if self.eigen is None:
+            raise RuntimeError("an elastic body has no eigenstrain operator")
+        return self.eigen
 
     def _pressure_stress(self, pressure: np.ndarray, sl) -> np.ndarray:
         """Stress [Pa] on the body grid, (nbx, nby, nz, 6), of the window pressure at ``sl``."""
@@ -189,13 +213,13 @@ class Simulation:
                 slice(int(c[1]), int(c[1]) + self.window[1]))
 
     def _initial_gap(self, position: tuple[float, float], x1, x2) -> np.ndarray:
-        """Initial gap at body-frame points: curvature about the load point + surface features."""
+        """Return the initial gap at body-frame points: curvature about the load, features."""
         dents = getattr(self.case.surface, "dents", ())
         h = curvature_gap(x1, x2, position[0], position[1], self.radii)
         return h + features_gap(x1, x2, dents, self._heights)
 
     def _geometry(self, position: tuple[float, float], sl) -> np.ndarray:
-        """Initial gap on the contact window ``sl``."""
+        """Return the initial gap on the contact window ``sl``."""
         return self._initial_gap(
             position, self.coords.x1[sl[0]][:, None], self.coords.x2[sl[1]][None, :]
         )
@@ -258,12 +282,12 @@ class Simulation:
         opts = self.case.solver
         u_old = self.residual_displacement
         u_floor = max(float(np.abs(u_old).max()), _TINY)  # a hold step moves u by round-off
-        last = {"u": None, "result": None, "du": np.inf}
+        last: dict[str, Any] = {"u": None, "result": None, "du": np.inf}
 
         def residual_fields(x):
             if not x.any():  # the fields of εp_old are known: no application
                 return self.residual_stress, u_old, 0
-            stress, u = self.eigen.residual_stress(self.plastic_strain + x, with_displacement=True)
+            stress, u = self._eigen.residual_stress(self.plastic_strain + x, with_displacement=True)
             return stress, u, 1
 
         def sigma(x):
@@ -286,7 +310,7 @@ class Simulation:
         return last["result"], (dx, dp), applications, last["fields"], (res, coupling)
 
     def _nested(self, solve, sl, step: int):
-        """The seed's nested loops (Fig. 5): contact ↔ plastic fixed point for fixed pressure.
+        """Run the seed's nested loops (Fig. 5): contact ↔ plastic fixed point at fixed pressure.
 
         The outer loop runs on the residual displacement (Anderson-accelerated); each inner
         plastic solve is inexact (a tenth of the last coupling change, never looser than 1e-2)
@@ -296,7 +320,7 @@ class Simulation:
         opts = self.case.solver
         x = np.zeros(self.plastic_strain.shape)
         u_old = self.residual_displacement
-        u_used = u_old
+        u_used: np.ndarray = u_old
         applications = 0
         u_floor = max(float(np.abs(u_old).max()), _TINY)  # as in _coupled
         depth = opts.anderson_depth if opts.acceleration == "anderson" else 0
@@ -309,14 +333,14 @@ class Simulation:
             tol = max(inner_tol, opts.plasticity_tolerance)
 
             def sigma(x, sig_pr=sig_pr):
-                return sig_pr + self.eigen.residual_stress(self.plastic_strain + x), 1
+                return sig_pr + self._eigen.residual_stress(self.plastic_strain + x), 1
 
             x, dp, n_apps, res = self._fixed_point(
                 sigma, x, step, lambda res, tol=tol: res < tol, "plasticity")
             applications += n_apps
             if not dp.any():
                 return result, (x, dp), applications, (res, 0.0)
-            u_new = self.eigen.residual_displacement(self.plastic_strain + x)
+            u_new = self._eigen.residual_displacement(self.plastic_strain + x)
             scale = max(float(np.abs(u_new - u_old).max()), u_floor)
             change = float(np.abs(u_new - u_used).max() / scale)
             log.debug("step %d coupling: residual displacement change %.3e", step, change)
@@ -337,17 +361,15 @@ class Simulation:
         (pressure stress plus residual stress of ``εp_old + x``); ``converged(res)`` decides on
         the relative residual ``max|G(x) − x| / max(|G(x)|, |x|, |εp_old|)`` (relative to the
         increment, or to the plastic strain already there when that is larger: a hold step, or a
-        rolling step far from the load, changes the plastic strain by round-off). Fixed-point
-        sweeps
-        accelerated by Anderson mixing; without acceleration, plain sweeps while they at least
-        halve the residual. When the sweeps stall (no halving of the best residual in 25 sweeps)
-        it switches to semismooth Newton: the Jacobian ``I − T (A + 2μ)`` (``T`` the algorithmic
-        tangent of the return, ``A`` the residual-stress operator; the pressure's dependence on
-        ``x`` is left out) is inverted matrix-free by GMRES, with a backtracking line search on
-        the residual. Returns ``(Δεp, Δp, residual-stress applications, final residual)`` with
+        rolling step far from the load, changes the plastic strain by round-off). Solved by
+        :func:`sacflow.nonlinear.solve_fixed_point`: sweeps accelerated by Anderson mixing
+        (plain sweeps without acceleration) and, when they stall, semismooth Newton with the
+        Jacobian ``I − T (A + 2μ)`` (``T`` the algorithmic tangent of the return, ``A`` the
+        residual-stress operator; the pressure's dependence on ``x`` is left out) applied
+        matrix-free. Returns ``(Δεp, Δp, residual-stress applications, final residual)`` with
         ``Δεp = G(x)``, or the converged iterate ``x`` itself with ``accept_iterate``.
         """
-        from scipy.sparse.linalg import LinearOperator, gmres  # plastic runs only
+        from scipy.sparse.linalg import LinearOperator  # plastic runs only
 
         opts = self.case.solver
         depth, mu, eqps = self.coords.x3, self.mu, self.eqps
@@ -358,7 +380,7 @@ class Simulation:
         # is round-off, and measured against itself it never converges.
         strain_scale = max(float(np.abs(self.plastic_strain).max()), _TINY)
 
-        def evaluate(x):
+        def evaluate(x: np.ndarray) -> Evaluation:
             nonlocal applications
             stress, apps = sigma(x)
             applications += apps
@@ -366,54 +388,37 @@ class Simulation:
             ret = radial_return(trial, eqps, self.law, mu, depth=depth)
             gx = ret.plastic_strain_increment
             scale = max(float(np.abs(gx).max()), float(np.abs(x).max()), strain_scale)
-            res = float(np.abs(gx - x).max()) / scale
-            return trial, ret, res
+            return Evaluation(gx, float(np.abs(gx - x).max()) / scale, (trial, ret))
 
-        def jacobian_apply(tangent):
-            def matvec(v):
+        def jacobian(x: np.ndarray, ev: Evaluation) -> LinearOperator:
+            """``I − T (A + 2μ)``: ``T`` the return's algorithmic tangent, ``A`` residual stress."""
+            trial, ret = ev.data
+            tangent = ReturnTangent(trial, ret, eqps, self.law, mu, depth)
+
+            def matvec(v: np.ndarray) -> np.ndarray:
                 nonlocal applications
                 applications += 1
                 v = v.reshape(shape)
-                return (v - tangent.apply(self.eigen.residual_stress(v) + 2.0 * mu * v)).ravel()
+                return (v - tangent.apply(self._eigen.residual_stress(v) + 2.0 * mu * v)).ravel()
+
             return LinearOperator((n, n), matvec=matvec, dtype=float)
 
-        trial, ret, res = evaluate(x)
-        newton, res_prev, best, stalled = False, np.inf, np.inf, 0
-        mixer = AndersonMixer(opts.anderson_depth) if opts.acceleration == "anderson" else None
-        for iteration in range(1, opts.plasticity_max_iterations + 1):
-            if converged(res) or (not ret.plastic.any() and not x.any()):
-                dx = x if accept_iterate else ret.plastic_strain_increment
-                return dx, ret.eqps_increment, applications, res
-            if mixer is None:
-                newton = newton or res > 0.5 * res_prev
-            else:  # Anderson stalls on some active-set changes: fall back to Newton
-                if res < 0.5 * best:
-                    best, stalled = res, 0
-                stalled += 1
-                newton = newton or stalled > 25
-            res_prev = res
-            if not newton:
-                gx = ret.plastic_strain_increment
-                x = gx if mixer is None else mixer.step(x.ravel(), gx.ravel()).reshape(shape)
-                trial, ret, res = evaluate(x)
-                log.debug("step %d %s sweep %d: residual %.3e", step, what, iteration, res)
-                continue
-            tangent = ReturnTangent(trial, ret, eqps, self.law, mu, depth)
-            f = (ret.plastic_strain_increment - x).ravel()
-            delta, _ = gmres(jacobian_apply(tangent), f, rtol=max(min(0.1, res), 1e-4),
-                             atol=0.0, restart=30, maxiter=4)
-            step_length = 1.0
-            for _ in range(6):
-                x_try = x + step_length * delta.reshape(shape)
-                trial_t, ret_t, res_t = evaluate(x_try)
-                if res_t < res or step_length < 0.05:
-                    break
-                step_length *= 0.5
-            log.debug("step %d %s newton %d: residual %.3e -> %.3e (step length %.3g, %d plastic)",
-                      step, what, iteration, res, res_t, step_length, int(ret_t.plastic.sum()))
-            x, trial, ret, res = x_try, trial_t, ret_t, res_t
-        raise ConvergenceError(what, step=step, residual=res, tolerance=opts.plasticity_tolerance,
-                               iterations=opts.plasticity_max_iterations)
+        def accept(x: np.ndarray, ev: Evaluation) -> bool:
+            return converged(ev.residual) or (not ev.data[1].plastic.any() and not x.any())
+
+        depth_anderson = opts.anderson_depth if opts.acceleration == "anderson" else 0
+        try:
+            out = solve_fixed_point(
+                evaluate, x, accept, max_iterations=opts.plasticity_max_iterations,
+                anderson_depth=depth_anderson, jacobian=jacobian, label=f"step {step} {what}",
+            )
+        except FixedPointError as exc:
+            raise ConvergenceError(what, step=step, residual=exc.residual,
+                                   tolerance=opts.plasticity_tolerance,
+                                   iterations=exc.iterations) from None
+        ret = out.evaluation.data[1]
+        dx = out.x if accept_iterate else ret.plastic_strain_increment
+        return dx, ret.eqps_increment, applications, out.evaluation.residual
 
     # ------------------------------------------------------------------ driver
     def run(self, start: int = 0) -> Iterator[State]:
@@ -472,7 +477,7 @@ class Simulation:
         self.residual_displacement = arrays["residual_displacement"]
         if self.eigen is not None and self.plastic_strain.any():
             with single_threaded_blas():
-                self.residual_stress = self.eigen.residual_stress(self.plastic_strain)
+                self.residual_stress = self._eigen.residual_stress(self.plastic_strain)
         else:
             self.residual_stress = np.zeros_like(self.plastic_strain)
         plan = self.steps[step]
@@ -493,7 +498,7 @@ class Simulation:
             if inc.residual_fields is not None:
                 self.residual_stress, self.residual_displacement = inc.residual_fields
             else:
-                self.residual_stress, self.residual_displacement = self.eigen.residual_stress(
+                self.residual_stress, self.residual_displacement = self._eigen.residual_stress(
                     self.plastic_strain, with_displacement=True)
             self._check_box(step)
         volume = {}
@@ -590,21 +595,23 @@ class Simulation:
         )
 
 
-def _measured_heights(case):
+def _measured_heights(case, surface: MeasuredSurface | None):
     """Height function of a measured surface (linear interpolation), or None.
 
-    The file is read once here, at set-up (through :mod:`sacflow.store`, the only module that
-    knows netCDF); the numerical core only calls the returned function. Points outside the
-    measured grid raise :class:`~sacflow.errors.SacflowError` naming the uncovered extent.
+    The heights come as arrays (:func:`sacflow.store.load_surface` reads the file): the
+    numerical core does no I/O. Points outside the measured grid raise
+    :class:`~sacflow.errors.SacflowError` naming the uncovered extent.
     """
     if getattr(case.surface, "kind", "smooth") != "measured":
         return None
+    if surface is None:
+        raise SacflowError(
+            "surface: a measured surface needs its heights: build the simulation with "
+            "Simulation(case, surface=sacflow.store.load_surface(case)), or use sacflow.run"
+        )
     from scipy.interpolate import RegularGridInterpolator
 
-    from sacflow.store import read_measured_surface
-
-    surf = case.surface
-    data = read_measured_surface(surf.path, surf.format, surf.variable)
+    data = surface
     interp = RegularGridInterpolator((data.x1, data.x2), data.height, bounds_error=False)
 
     def heights(x1: np.ndarray, x2: np.ndarray) -> np.ndarray:

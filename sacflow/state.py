@@ -15,6 +15,7 @@ __all__ = [
     "COMPONENTS",
     "RESTART_FIELDS",
     "GridCoords",
+    "MeasuredSurface",
     "State",
     "SCALAR_FIELDS",
     "SURFACE_FIELDS",
@@ -133,3 +134,12 @@ class State:
     def scalars(self) -> dict[str, float | int | bool]:
         """Return the per-step scalars as a dict keyed by :data:`SCALAR_FIELDS`."""
         return {name: getattr(self, name) for name in SCALAR_FIELDS}
+
+
+@dataclass(frozen=True)
+class MeasuredSurface:
+    """A measured surface: heights [m] on the grid ``x1`` × ``x2`` [m], shape (nx1, nx2)."""
+
+    x1: np.ndarray
+    x2: np.ndarray
+    height: np.ndarray

@@ -47,14 +47,14 @@ from datetime import UTC, datetime
 from importlib import metadata
 from pathlib import Path
 from types import TracebackType
-from typing import TYPE_CHECKING, Any, NamedTuple
+from typing import TYPE_CHECKING, Any, Literal, NamedTuple, cast
 
 import netCDF4
 import numpy as np
 
 from sacflow.errors import SacflowError
-from sacflow.schema import Case, identity_differences
-from sacflow.state import COMPONENTS, RESTART_FIELDS, GridCoords, State
+from sacflow.schema import Case, Measured, identity_differences
+from sacflow.state import COMPONENTS, RESTART_FIELDS, GridCoords, MeasuredSurface, State
 
 if TYPE_CHECKING:  # xarray is imported where runs are read: writers (campaign workers) skip it
     import xarray as xr
@@ -71,6 +71,7 @@ __all__ = [
     "parts_dir",
     "read_measured_surface",
     "read_scalars",
+    "load_surface",
     "run_info",
 ]
 
@@ -157,8 +158,8 @@ RESTART_GROUP = "restart"
 UNIFORM_ATTR = "uniform_fields"
 #: HDF5 chunk cache [bytes] of the variables sacflow writes. Every write is one whole chunk (a
 #: step of one field), which HDF5 then filters and writes at once instead of keeping up to
-#: netCDF's default 64 MB per variable until the file closes (measured: a 128 x 128 x 16 case
-#: peaked at 660 MB instead of 400 MB).
+#: netCDF's default 64 MB per variable until the file closes (which raised a run's memory peak
+#: by more than half, ``docs/performance.md``).
 WRITE_CHUNK_CACHE = 0
 _NETCDF_SUFFIXES = {".nc", ".nc4", ".cdf", ".netcdf", ".h5", ".hdf5"}
 
@@ -264,7 +265,7 @@ class RunWriter:
         self.next_step += 1
 
     def close(self) -> None:
-        """Normal end: consolidate the parts into :attr:`path` and remove the parts folder."""
+        """End normally: consolidate the parts into :attr:`path` and remove the parts folder."""
         if self._closed:
             return
         self._closed = True
@@ -278,6 +279,7 @@ class RunWriter:
         self._closed = True
 
     def __enter__(self) -> RunWriter:
+        """Return the writer itself."""
         return self
 
     def __exit__(
@@ -286,6 +288,7 @@ class RunWriter:
         exc: BaseException | None,
         tb: TracebackType | None,
     ) -> None:
+        """Consolidate on a normal exit, keep the parts (resumable) after an exception."""
         if exc_type is None:
             self.close()
         else:
@@ -448,6 +451,16 @@ def _sizes(coords: GridCoords) -> dict[str, int]:
     return dict(zip(("x1", "x2", "x3"), coords.shape, strict=True), component=len(COMPONENTS))
 
 
+#: A zlib level as netCDF4 takes it.
+ZlibLevel = Literal[1, 2, 3, 4, 5, 6, 7, 8, 9]
+
+
+def _zlib_level(compression: int) -> ZlibLevel:
+    """Return the zlib level of ``compression`` (0 writes uncompressed: zlib is then off)."""
+    # The schema bounds output.compression to 0..9 (Output.compression), so this is 1..9.
+    return cast(ZlibLevel, max(compression, 1))
+
+
 def _create(
     path: Path,
     coords: GridCoords,
@@ -471,7 +484,7 @@ def _create(
             "i1" if spec.dtype == "bool" else spec.dtype,
             spec.dims,
             zlib=compression > 0,
-            complevel=max(compression, 1),
+            complevel=_zlib_level(compression),
             fill_value=np.nan if spec.dtype == "f8" else None,
             chunksizes=(1, *(sizes[d] for d in spec.dims[1:])) if len(spec.dims) > 1 else None,
         )
@@ -499,7 +512,7 @@ def _write_step(nc: netCDF4.Dataset, index: int, step: int, values: Mapping[str,
 
 
 def _uniform(array: np.ndarray) -> float | None:
-    """The value of every element of ``array`` when they are all equal (not NaN), else None."""
+    """Return the value of every element of ``array`` when all are equal (not NaN), else None."""
     flat = array.reshape(-1)
     first = flat[0]
     if flat[-1] != first or not (flat == first).all():  # the ends first: most fields differ
@@ -593,7 +606,7 @@ class RunInfo:
             return None
 
     def matches(self, case_id: str) -> bool:
-        """The stored run is a run of the case ``case_id``.
+        """Tell whether the stored run is a run of the case ``case_id``.
 
         It is when ``case_id`` is the stored ``case_id`` or ``requested_case_id`` (a run whose
         box was deepened automatically), or the id of the stored case under this version's
@@ -606,7 +619,7 @@ class RunInfo:
         return stored is not None and stored.case_id == case_id
 
     def describe(self) -> str:
-        """A few words on what is stored, for messages."""
+        """Say in a few words what is stored, for messages."""
         if self.unreadable:
             return f"a file that is not a readable run ({self.problem})"
         if self.complete:
@@ -618,7 +631,7 @@ class RunInfo:
         return "no run"
 
     def report(self) -> str:
-        """A few lines for ``sacflow info``: what is stored, of which case, and its state."""
+        """Write a few lines for ``sacflow info``: what is stored, of which case, and its state."""
         lines = [f"{self.path}: {self.describe()}"]
         if self.attrs:
             stored = self.case
@@ -637,7 +650,7 @@ class RunInfo:
         return "\n".join(lines)
 
     def restart_stored(self) -> bool:
-        """The last sound part holds the solver state (true resume is possible)."""
+        """Tell whether the last sound part holds the solver state (true resume is possible)."""
         if not self.parts:
             return False
         with netCDF4.Dataset(self.parts[-1]) as nc:
@@ -653,7 +666,7 @@ class RunInfo:
 
 
 def run_info(path: str | Path) -> RunInfo:
-    """What is stored at the run path ``path``: a finished run, an interrupted one, or nothing.
+    """Find what is stored at the run path ``path``: a finished run, an interrupted one, or none.
 
     Opens a consolidated file once (attributes and step count). For an interrupted run, every
     part is checked: its SHA-256 against the checksum in its name (parts without one are read
@@ -741,14 +754,14 @@ def _write_restart(nc: netCDF4.Dataset, state: State, stored: Mapping[str, Any])
 
 
 def _same(stored: Any, array: np.ndarray) -> bool:
-    """The stored output value (an array, or one value for a uniform field) equals ``array``."""
+    """Tell whether a stored output value (array, or one value of a uniform field) is ``array``."""
     if np.ndim(stored) == 0:
         return _uniform(array) == stored
     return stored is array or np.array_equal(stored, array)
 
 
 def _read_restart(part: Path) -> tuple[dict[str, np.ndarray], float | None] | None:
-    """The solver state a part stores (:func:`_write_restart`), or None when it has none."""
+    """Read the solver state a part stores (:func:`_write_restart`), or None when it has none."""
     with netCDF4.Dataset(part) as nc:
         nc.set_auto_mask(False)
         if RESTART_GROUP not in nc.groups:
@@ -834,7 +847,7 @@ def _load(path: Path) -> xr.Dataset:
 
 
 def is_complete(path: str | Path, case_id: str) -> bool:
-    """True when ``path`` is a finished (consolidated) run of the case ``case_id``.
+    """Tell whether ``path`` is a finished (consolidated) run of the case ``case_id``.
 
     A run whose box was grown automatically (``requested_case_id`` attribute) also counts as a
     finished run of the case asked for.
@@ -847,7 +860,7 @@ def is_complete(path: str | Path, case_id: str) -> bool:
 
 
 def completed_steps(path: str | Path, case_id: str | None = None) -> int:
-    """Number of steps stored for the run file ``path`` (0 if they belong to another case)."""
+    """Count the steps stored for the run file ``path`` (0 if they belong to another case)."""
     info = run_info(path)
     if case_id is not None and not info.matches(case_id):
         return 0
@@ -871,13 +884,21 @@ def read_scalars(path: str | Path) -> dict[str, np.ndarray]:
 
 
 # --------------------------------------------------------------------------- measured surfaces
-@dataclass(frozen=True)
-class MeasuredSurface:
-    """A measured surface: heights [m] on the grid ``x1`` × ``x2`` [m], shape (nx1, nx2)."""
+def load_surface(case: Case) -> MeasuredSurface | None:
+    """Return the measured surface a case names (read from its file), or None for other kinds.
 
-    x1: np.ndarray
-    x2: np.ndarray
-    height: np.ndarray
+    Raises
+    ------
+    SacflowError
+        Naming ``surface.path`` and the reason when the file cannot be read as a surface.
+    """
+    surf = case.surface
+    if not isinstance(surf, Measured):
+        return None
+    try:
+        return read_measured_surface(surf.path, surf.format, surf.variable)
+    except ValueError as exc:
+        raise SacflowError(f"surface.path {surf.path}: {exc}") from None
 
 
 def read_measured_surface(

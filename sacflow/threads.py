@@ -2,11 +2,10 @@
 
 The core's BLAS calls are short (dot products of one grid, least-squares problems of a few
 columns) and OpenBLAS worker threads keep spinning after each call for a while. On a machine
-with few cores those spinning threads compete with FFTW's threads for the same cores: measured on
-this project's 2-core machine, a 512² contact solve took 3.9 s with the default BLAS threads and
-1.6 s with one BLAS thread (same FFTW plans). The compute entry points therefore run inside
-:func:`single_threaded_blas`; the limit is lifted again on exit, so a notebook's own BLAS work
-is unaffected.
+with few cores those spinning threads compete with FFTW's threads for the same cores: a contact
+solve took more than twice as long (``docs/performance.md``). The compute entry points run
+inside :func:`single_threaded_blas`; the limit is lifted again on exit, so a notebook's own BLAS
+work is unaffected.
 """
 
 from __future__ import annotations
@@ -22,26 +21,25 @@ __all__ = ["single_threaded_blas"]
 
 
 def _controller() -> ThreadpoolController:
-    """Controller over the BLAS libraries loaded now.
+    """Return a controller over the BLAS libraries loaded now.
 
     numpy's BLAS is loaded with numpy; SciPy's own BLAS with ``scipy.linalg``, which every
     SciPy module that calls BLAS imports (the plastic solver's gmres, for one). The controller
     is built again once, when ``scipy.linalg`` appears. It is not imported here: an elastic
-    run does not need it, and its import takes 0.19 s (with ``numpy.f2py`` and
-    ``charset_normalizer``, measured on the development machine), paid by the first case of
-    every process.
+    run does not need it, and its import (with ``numpy.f2py`` and ``charset_normalizer``) is
+    slow, paid by the first case of every process.
     """
     return _controller_for("scipy.linalg" in sys.modules)
 
 
 @functools.lru_cache(maxsize=2)
 def _controller_for(scipy_linalg_loaded: bool) -> ThreadpoolController:
-    """The controller built when ``scipy.linalg`` was (not) loaded: 2-4 ms, once each."""
+    """Build the controller for ``scipy.linalg`` (not) loaded; cached: building it is slow."""
     return ThreadpoolController()
 
 
 @contextlib.contextmanager
 def single_threaded_blas() -> Iterator[None]:
-    """Limit every loaded BLAS library to one thread inside the block (cost ≈ 10 µs)."""
+    """Limit every loaded BLAS library to one thread inside the block (cheap: cached)."""
     with _controller().limit(limits=1, user_api="blas"):
         yield

@@ -36,6 +36,7 @@ from sacflow.campaign import (
     load_campaign,
     run_campaign,
 )
+from sacflow.campaign import cluster as cluster_module
 from sacflow.cli import main
 from sacflow.config import load_case
 from sacflow.errors import ConfigError, ConvergenceError
@@ -153,6 +154,15 @@ def run_serially(campaign_path: Path, out: Path, factory=None) -> list[Path]:
         for c in cases:
             runner.run_case(c.case, out, progress=False, simulation_factory=factory)
     return [out / f"{c.name}.nc" for c in cases]
+
+
+@pytest.fixture(scope="module")
+def shared_cluster():
+    """Address of one local cluster of 2 workers (sacflow's: forked, single-threaded), shared by
+    the tests that need some cluster but do not test how the local cluster starts or restarts
+    its workers; they pass it to ``run_campaign`` as ``scheduler`` (``--scheduler``)."""
+    with cluster_module.connect(None, 2, 2) as client:
+        yield client.scheduler.address
 
 
 @pytest.fixture(scope="module")
@@ -344,10 +354,10 @@ def test_smoke_campaign_matches_hertz(smoke_serial):
         )
 
 
-def test_local_cluster_matches_serial_runs_and_skips_on_rerun(tmp_path, smoke_serial):
+def test_cluster_matches_serial_runs_and_skips_on_rerun(tmp_path, smoke_serial, shared_cluster):
     """Real solver: 2 workers give the files run_case gives one by one; a re-run runs nothing."""
     out = tmp_path / "campaign"
-    summary = run_campaign(load_campaign(SMOKE), out, workers=2, progress=False)
+    summary = run_campaign(load_campaign(SMOKE), out, scheduler=shared_cluster, progress=False)
     assert summary.counts() == {"done": 6, "skipped": 0, "failed": 0}, summary.table()
     assert summary.workers == 2 and not summary.failed
     assert [p.name for p in sorted(out.glob("*.nc"))] == sorted(p.name for p in summary.paths)
@@ -360,14 +370,16 @@ def test_local_cluster_matches_serial_runs_and_skips_on_rerun(tmp_path, smoke_se
         assert_same_runs(out / path.name, path)
 
     mtimes = {p: p.stat().st_mtime_ns for p in out.glob("*.nc")}
-    again = run_campaign(load_campaign(SMOKE), out, workers=2, progress=False)
+    again = run_campaign(load_campaign(SMOKE), out, scheduler=shared_cluster, progress=False)
     assert again.counts() == {"done": 0, "skipped": 6, "failed": 0} and again.workers == 0
     assert {p: p.stat().st_mtime_ns for p in out.glob("*.nc")} == mtimes, "nothing rewritten"
     assert set(statuses(out, "campaign-smoke").values()) == {"skipped"}
     assert "6 skipped" in again.table()
 
 
-def test_failed_case_is_recorded_others_finish_exit_code_1(folder, capsys, monkeypatch):
+def test_failed_case_is_recorded_others_finish_exit_code_1(
+    folder, capsys, monkeypatch, shared_cluster
+):
     """Through the CLI: one case raises, the others finish; a fixed re-run resumes that one."""
     path = fake_campaign(folder)
     out = folder / "out"
@@ -376,7 +388,8 @@ def test_failed_case_is_recorded_others_finish_exit_code_1(folder, capsys, monke
         "run_campaign",
         functools.partial(run_campaign, simulation_factory=failing_simulation),
     )
-    args = ["campaign", str(path), "--out", str(out), "--workers", "2", "--no-progress"]
+    args = ["campaign", str(path), "--out", str(out), "--scheduler", shared_cluster,
+            "--no-progress"]
     assert main(args) == 1
     captured = capsys.readouterr()
     data = manifest(out, "fake")
@@ -425,7 +438,7 @@ def test_local_cluster_workers_are_single_threaded_and_preloaded():
         name: os.environ.get(name)
         for name in (campaign_module.FFT_THREADS_ENV, *campaign_module.WORKER_ENV, *MALLOC_ENV)
     }
-    with campaign_module._client(None, 2, 2) as client:
+    with cluster_module.connect(None, 2, 2) as client:
         info = client.run(worker_threads)
     assert len(info) == 2
     for worker in info.values():
@@ -439,22 +452,31 @@ def test_local_cluster_workers_are_single_threaded_and_preloaded():
     assert after == before, "this process's environment is left as it was"
 
 
-def test_local_cluster_start_imports_no_pandas_here():
-    """distributed would import its optional packages (pandas) in this process to replace the
-    fork server's preload list; sacflow's cluster keeps its own list and does not."""
+def test_local_cluster_keeps_sacflow_preload_list():
+    """distributed's first nanny replaces the fork server's preload list with its own (read only
+    if the fork server starts again); the local cluster sets sacflow's back. The campaign
+    process itself does not import the solver's FFT modules."""
     if "forkserver" not in multiprocessing.get_all_start_methods():
         pytest.skip("no fork server on this platform")
     code = (
         "import sys\n"
-        "from sacflow.campaign import _client\n"
+        "from multiprocessing import forkserver\n"
+        "from sacflow.campaign import FORK_SERVER_LAST, WORKER_PRELOAD\n"
+        "from sacflow.campaign.cluster import connect\n"
+        "calls, set_preload = [], forkserver.set_forkserver_preload\n"
+        "def record(names):\n"
+        "    calls.append(list(names))\n"
+        "    set_preload(names)\n"
+        "forkserver.set_forkserver_preload = record\n"
         "if __name__ == '__main__':\n"
-        "    with _client(None, 1, 1) as client:\n"
+        "    with connect(None, 1, 1) as client:\n"
         "        assert client.submit(sum, [1, 2]).result() == 3\n"
-        "    print('pandas' in sys.modules, 'scipy.fft' in sys.modules)\n"
+        "    print(len(calls) >= 2, calls[-1][-1] == FORK_SERVER_LAST,\n"
+        "          set(WORKER_PRELOAD) <= set(calls[-1]), 'scipy.fft' in sys.modules)\n"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True)
-    assert out.stdout.split() == ["False", "False"]
+    assert out.stdout.split() == ["True", "True", "True", "False"]
 
 
 def test_fork_server_preloads_plasticity_only_for_plastic_campaigns(folder, monkeypatch):
@@ -466,7 +488,8 @@ def test_fork_server_preloads_plasticity_only_for_plastic_campaigns(folder, monk
     preloads: list[list[str]] = []
     monkeypatch.setattr(forkserver, "set_forkserver_preload", preloads.append)
     monkeypatch.setattr(forkserver, "ensure_running", lambda: None)
-    monkeypatch.setattr(campaign_module, "_client", _no_client)
+    monkeypatch.setattr(cluster_module, "connect", _no_client)
+    monkeypatch.setattr(cluster_module, "_preload", [])  # this process's real list stays as it is
     elastic = '[[sweep]]\nmode = "zip"\nparameters = { "load_path.0.to" = [0.2, 0.3] }'
     mixed = (
         '[[sweep]]\nmode = "zip"\nparameters = { "body.hardening" = '
@@ -498,7 +521,9 @@ class _Stop(Exception):
 
 
 def test_longest_cases_are_submitted_first(folder):
-    """One worker runs the cases in submission order: the finer grid (more cells) first."""
+    """One worker runs the cases in submission order: the finer grid (more cells) first.
+
+    Its own local cluster of one worker: also run_campaign's path that starts a local cluster."""
     base = (folder / "base.toml").read_text()
     (folder / "fake-base.toml").write_text(base)
     sweep = '[[sweep]]\nmode = "zip"\nparameters = { "grid.nx" = [16, 24, 32] }'
@@ -512,12 +537,12 @@ def test_longest_cases_are_submitted_first(folder):
     assert [p.stem for p in finished] == ["order-nx32", "order-nx24", "order-nx16"]
 
 
-def test_unexpected_errors_keep_their_traceback(folder):
+def test_unexpected_errors_keep_their_traceback(folder, shared_cluster):
     out = folder / "out"
     summary = run_campaign(
         load_campaign(fake_campaign(folder)),
         out,
-        workers=1,
+        scheduler=shared_cluster,
         progress=False,
         simulation_factory=broken_simulation,
     )
@@ -719,26 +744,26 @@ def test_unreachable_scheduler_is_a_clear_error(tmp_path, capsys):
     assert f"cannot connect to the dask scheduler at {address}" in capsys.readouterr().err
 
 
-def test_campaign_never_overwrites_a_run_of_another_case(folder):
+def test_campaign_never_overwrites_a_run_of_another_case(folder, shared_cluster):
     """A case whose name already holds another case's run fails with the reason; asked, it runs."""
     base = (folder / "base.toml").read_text()
     (folder / "fake-base.toml").write_text(base)
     sweep = '[[sweep]]\nmode = "zip"\nparameters = { "grid.nx" = [16, 24] }'
     path = write(folder, campaign_text(sweep, base='base = "fake-base.toml"', name="keep"))
     out = folder / "out"
-    first = run_campaign(load_campaign(path), out, workers=1, progress=False,
+    first = run_campaign(load_campaign(path), out, scheduler=shared_cluster, progress=False,
                          simulation_factory=fake_simulation)
     assert first.counts()["done"] == 2, first.table()
     stored = (out / "keep-nx16.nc").read_bytes()
 
     (folder / "fake-base.toml").write_text(base.replace("nz = 3", "nz = 4"))  # another case
-    second = run_campaign(load_campaign(path), out, workers=1, progress=False,
+    second = run_campaign(load_campaign(path), out, scheduler=shared_cluster, progress=False,
                           simulation_factory=fake_simulation)
     assert len(second.failed) == 2 and (out / "keep-nx16.nc").read_bytes() == stored
     error = second.failed[0].error
     assert "grid.nz: 3 -> 4" in error and "--overwrite" in error and second.failed[0].traceback \
         is None
 
-    third = run_campaign(load_campaign(path), out, workers=1, progress=False,
+    third = run_campaign(load_campaign(path), out, scheduler=shared_cluster, progress=False,
                          simulation_factory=fake_simulation, overwrite=True)
     assert third.counts()["done"] == 2, third.table()

@@ -94,18 +94,25 @@ def test_traction_free_surface_converges():
 
 
 def test_equilibrium_by_finite_differences():
-    """div σ by central differences away from the sources falls as h² (it is exactly zero)."""
+    """div σ by central differences away from the sources falls as h² (it is exactly zero).
+
+    The box is the smallest holding the source, the checked region and one cell of neighbours
+    for the central differences (rounded up to FFT-friendly sizes): 0.22 GB at the finest grid
+    instead of the 2 GB of a 96 × 96 × 48 box. (The fields differ from the wider box's by
+    ~4 %: the surface traction of cuboid and mirror is removed over the box's surface only.
+    Each field is in equilibrium whatever the box, which is what this test checks.)
+    """
     src = np.random.default_rng(1).standard_normal(6) * 1e-3
     ratios = []
     for h in (1.0, 0.5, 0.25):
         m = int(round(1 / h))
-        shape = (24 * m, 24 * m, 12 * m)
+        shape = (12 * m, 6 * m, 10 * m)  # >= (11m + 1, 5m + 1, 9m + 1), FFT-friendly
         eps = np.zeros((*shape, 6))
-        eps[10 * m:14 * m, 10 * m:14 * m, 3 * m:5 * m] = src
+        eps[1 * m:5 * m, 1 * m:5 * m, 3 * m:5 * m] = src
         s = HalfSpaceEigenstrain(shape, (h, h, h), E, NU).residual_stress(eps)
         tensor = s[..., [[0, 3, 4], [3, 1, 5], [4, 5, 2]]]  # (..., 3, 3)
         div = sum(np.gradient(tensor[..., :, j], h, axis=j) for j in range(3))
-        region = (slice(16 * m, 20 * m), slice(10 * m, 14 * m), slice(6 * m, 9 * m))
+        region = (slice(7 * m, 11 * m), slice(1 * m, 5 * m), slice(6 * m, 9 * m))
         gradient = np.abs(np.gradient(tensor[..., 0, 0], h, axis=0)[region]).max()
         ratios.append(np.abs(div[region]).max() / gradient)
     rate = np.polyfit(np.log([1.0, 0.5, 0.25]), np.log(ratios), 1)[0]
@@ -161,12 +168,18 @@ def test_layer_limit_normal_strain_lifts_surface():
 
 
 def test_eshelby_sphere_converges():
-    """Dilatational eigenstrain in a deep sphere: uniform −4μ(1+ν)ε*/(3(1−ν)) inside."""
+    """Dilatational eigenstrain in a deep sphere: uniform −4μ(1+ν)ε*/(3(1−ν)) inside.
+
+    The box just holds the sphere (2R + 1 cells wide, down to its bottom): ~0.4 GB at R = 12
+    instead of 1.7 GB. The surface traction is then removed over a narrower surface, which
+    changes the core stress of this deep sphere by less than the asserted error (R = 3, 6:
+    rms errors 1.936e-2 and 5.980e-3 in either box, equal to 4 digits).
+    """
     e = 1e-3
     exact = -4 * MU * (1 + NU) * e / (3 * (1 - NU))
     radii, errors = (3, 6, 12), []
     for R in radii:
-        nl, nz, h = 4 * R + 1, 12 * R, 1.0 / R
+        nl, nz, h = 2 * R + 1, 11 * R + 1, 1.0 / R
         i, j, k = np.meshgrid(np.arange(nl), np.arange(nl), np.arange(nz), indexing="ij")
         r = np.sqrt((i - nl // 2) ** 2 + (j - nl // 2) ** 2 + (k - 10 * R) ** 2) * h
         eps = np.zeros((nl, nl, nz, 6))

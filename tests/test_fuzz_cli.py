@@ -37,7 +37,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from sacflow import campaign as campaign_module
+from sacflow.campaign import cluster as cluster_module
+from sacflow.campaign import running as running_module
 from sacflow.cli import main
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
@@ -380,9 +381,9 @@ def _fuzz_campaign(example) -> None:
 
 
 def test_fuzz_campaign(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(campaign_module, "_client", _stand_in_client)
-    monkeypatch.setattr(campaign_module, "_run_pending", _no_tasks)
-    monkeypatch.setattr(campaign_module, "_start_fork_server", lambda plastic=False: "forkserver")
+    monkeypatch.setattr(cluster_module, "connect", _stand_in_client)
+    monkeypatch.setattr(running_module, "_run_pending", _no_tasks)
+    monkeypatch.setattr(cluster_module, "start_fork_server", lambda plastic=False: "forkserver")
     OUTCOMES["campaign"].clear()
     _fuzz_campaign()
     print(f"\nfuzz campaign: {dict(OUTCOMES['campaign'])}")

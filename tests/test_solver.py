@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
@@ -187,3 +189,29 @@ def test_too_shallow_box_grows_and_says_so(tmp_path):
     assert eqps.max() > 0 and not (eqps[..., -1] > 0).any(), "the grown box holds the zone"
     assert is_complete(summary.path, case.case_id)
     assert run_case(case, tmp_path, progress=False).skipped
+
+
+def test_measured_surface_comes_as_arrays(tmp_path):
+    """A flat measured surface (zero heights) gives the smooth case's contact; no file I/O inside.
+
+    The simulation gets the heights as arrays; without them it says how to give them.
+    """
+    from sacflow.config import load_case
+    from sacflow.errors import SacflowError
+    from sacflow.state import MeasuredSurface
+    from sacflow.store import load_surface
+
+    hertz = Path(__file__).resolve().parents[1] / "configs" / "hertz-elastic.toml"
+    sets = ["grid.nx=16", "grid.ny=16", "grid.nz=3"]
+    points = np.linspace(-20e-6, 20e-6, 9)
+    path = tmp_path / "flat.txt"
+    path.write_text("".join(f"{x} {y} 0\n" for x in points for y in points))
+    smooth = load_case(hertz, sets)
+    measured = load_case(hertz, [*sets, "surface.kind=measured", f"surface.path={path}"])
+    with pytest.raises(SacflowError, match="load_surface"):
+        Simulation(measured)
+    surface = load_surface(measured)
+    assert isinstance(surface, MeasuredSurface) and surface.height.shape == (9, 9)
+    a = next(Simulation(measured, surface=surface).run())
+    b = next(Simulation(smooth).run())
+    np.testing.assert_array_equal(a.surface["pressure"], b.surface["pressure"])

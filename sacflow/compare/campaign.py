@@ -31,6 +31,7 @@ __all__ = ["campaign_summary", "flatten"]
 Parameters = str | Path | Mapping[str, Any] | Sequence[str] | None
 _IGNORED = {"name", "description"}
 _WALL_TIME_ATTRS = ("wall_time", "wall_time_s", "elapsed")
+_PARAMETER_KEYS = ("parameters", "params", "overrides")
 
 
 def _open(source: RunLike) -> xr.Dataset:
@@ -111,11 +112,13 @@ def _manifest_entries(manifest: Any) -> list[dict[str, Any]]:
             if isinstance(value, Mapping)
         ]
     if isinstance(manifest, list):
-        entries = []
+        entries: list[dict[str, Any]] = []
         for item in manifest:
             if not isinstance(item, Mapping):
                 raise CompareError("manifest entries must be tables (JSON objects)")
-            params = next((item[k] for k in ("parameters", "params", "overrides") if k in item), {})
+            params: Mapping[str, Any] = next(
+                (item[k] for k in _PARAMETER_KEYS if k in item), {}
+            )
             entries.append({**item, "parameters": dict(params)})
         return entries
     raise CompareError("the campaign manifest must be a JSON object or list of cases")
@@ -138,7 +141,7 @@ def _manifest_runs(path: Path) -> list[Path]:
 
 
 def _match(entries: list[dict[str, Any]], ds: xr.Dataset, source: Any) -> dict[str, Any]:
-    """The manifest entry of a run: by case id, case name or run-file name."""
+    """Return the manifest entry of a run: by case id, case name or run-file name."""
     keys = {str(ds.attrs.get("case_id", "")), case_name(ds)}
     stem = Path(str(source)).stem if not isinstance(source, xr.Dataset) else None
     for entry in entries:
@@ -156,7 +159,9 @@ def _coordinate(values: list[Any]) -> np.ndarray:
     return np.asarray([json.dumps(v) if not isinstance(v, str) else v for v in values])
 
 
-def campaign_summary(runs: Sequence[RunLike], parameters: Parameters = None) -> xr.Dataset:
+def campaign_summary(
+    runs: Sequence[RunLike] | RunLike, parameters: Parameters = None
+) -> xr.Dataset:
     """Scalar results of the runs of a campaign along a ``case`` dimension.
 
     Parameters
@@ -176,57 +181,24 @@ def campaign_summary(runs: Sequence[RunLike], parameters: Parameters = None) -> 
         totals, ``steps`` and ``wall_time`` (NaN where a run lacks the output). Attribute
         ``parameters`` lists the swept keys in order.
     """
-    if isinstance(runs, str | Path | xr.Dataset):
-        runs = [runs]
-    runs = list(runs)
-    if len(runs) == 1 and not isinstance(runs[0], xr.Dataset) and str(runs[0]).endswith(".json"):
-        parameters = runs[0] if parameters is None else parameters
-        runs = _manifest_runs(Path(runs[0]))
-    if not runs:
-        raise CompareError("campaign-summary needs at least one run")
+    runs, parameters = _run_sources(runs, parameters)
     datasets = [_open(r) for r in runs]
     try:
         cases = [flatten(json.loads(ds.attrs["case"])) for ds in datasets]
-        entries = None
-        if isinstance(parameters, str | Path):
-            try:
-                manifest = json.loads(Path(parameters).read_text())
-            except (OSError, ValueError) as exc:
-                raise CompareError(f"{parameters}: not a readable JSON manifest ({exc})") from None
-            entries = _manifest_entries(manifest)
-        elif isinstance(parameters, Mapping):
-            entries = _manifest_entries(parameters)
+        entries, dotted = _parameter_sources(parameters)
         matched = (
             [_match(entries, ds, r) for ds, r in zip(datasets, runs, strict=True)]
             if (entries is not None)
             else None
         )
-
-        if matched is not None:
-            keys = list(dict.fromkeys(k for e in matched for k in e["parameters"]))
-            values = {k: [e["parameters"].get(k) for e in matched] for k in keys}
-        elif parameters is not None:  # dotted keys of the case
-            keys = [str(k) for k in parameters]
-            unknown = [k for k in keys if any(k not in c for c in cases)]
-            if unknown:
-                raise CompareError(f"not a (scalar) field of every case: {', '.join(unknown)}")
-            values = {k: [c[k] for c in cases] for k in keys}
-        else:
-            keys = [
-                k
-                for k in dict.fromkeys(k for c in cases for k in c)
-                if k not in _IGNORED and len({json.dumps(c.get(k)) for c in cases}) > 1
-            ]
-            values = {k: [c.get(k) for c in cases] for k in keys}
+        keys, values = _swept(cases, matched, dotted)
         rows = [_results(ds) for ds in datasets]
     finally:
         for ds, source in zip(datasets, runs, strict=True):
             if not isinstance(source, xr.Dataset):
                 ds.close()
     if matched is not None:
-        for row, entry in zip(rows, matched, strict=True):
-            if entry.get("wall_time") is not None and not np.isfinite(row["wall_time"]):
-                row["wall_time"] = float(entry["wall_time"])
+        _fill_wall_times(rows, matched)
     names = [case_name(ds) for ds in datasets]
     ids = [str(ds.attrs.get("case_id", "")) for ds in datasets]
     labels = (
@@ -247,3 +219,70 @@ def campaign_summary(runs: Sequence[RunLike], parameters: Parameters = None) -> 
         },
         metadata_of={k: f"swept parameter {k}" for k in keys},
     )
+
+
+def _run_sources(
+    runs: Sequence[RunLike] | RunLike, parameters: Parameters
+) -> tuple[list[RunLike], Parameters]:
+    """Return the runs as a list and the parameter source; a lone manifest gives both."""
+    if isinstance(runs, str | Path | xr.Dataset):
+        runs = [runs]
+    runs = list(runs)
+    first = runs[0] if len(runs) == 1 else None
+    if first is not None and not isinstance(first, xr.Dataset) and str(first).endswith(".json"):
+        parameters = first if parameters is None else parameters
+        runs = list(_manifest_runs(Path(first)))
+    if not runs:
+        raise CompareError("campaign-summary needs at least one run")
+    return runs, parameters
+
+
+def _parameter_sources(
+    parameters: Parameters,
+) -> tuple[list[dict[str, Any]] | None, list[str] | None]:
+    """Split ``parameters`` into manifest entries or dotted keys of the case (else both None).
+
+    None for both: the swept parameters are the keys whose values differ between the runs.
+    """
+    if isinstance(parameters, str | Path):
+        try:
+            manifest = json.loads(Path(parameters).read_text())
+        except (OSError, ValueError) as exc:
+            raise CompareError(f"{parameters}: not a readable JSON manifest ({exc})") from None
+        return _manifest_entries(manifest), None
+    if isinstance(parameters, Mapping):
+        return _manifest_entries(parameters), None
+    if parameters is None:
+        return None, None
+    return None, [str(k) for k in parameters]
+
+
+def _swept(
+    cases: list[dict[str, Any]], matched: list[dict[str, Any]] | None, dotted: list[str] | None
+) -> tuple[list[str], dict[str, list[Any]]]:
+    """Return the swept keys and their value in each run.
+
+    From the matched manifest entries, else the ``dotted`` keys of the flattened ``cases``,
+    else every key whose value differs between the cases (``name`` and ``description`` aside).
+    """
+    if matched is not None:
+        keys = list(dict.fromkeys(k for e in matched for k in e["parameters"]))
+        return keys, {k: [e["parameters"].get(k) for e in matched] for k in keys}
+    if dotted is not None:
+        unknown = [k for k in dotted if any(k not in c for c in cases)]
+        if unknown:
+            raise CompareError(f"not a (scalar) field of every case: {', '.join(unknown)}")
+        return dotted, {k: [c[k] for c in cases] for k in dotted}
+    keys = [
+        k
+        for k in dict.fromkeys(k for c in cases for k in c)
+        if k not in _IGNORED and len({json.dumps(c.get(k)) for c in cases}) > 1
+    ]
+    return keys, {k: [c.get(k) for c in cases] for k in keys}
+
+
+def _fill_wall_times(rows: list[dict[str, float]], matched: list[dict[str, Any]]) -> None:
+    """Take a run's wall time from its manifest entry when the run file lacks it."""
+    for row, entry in zip(rows, matched, strict=True):
+        if entry.get("wall_time") is not None and not np.isfinite(row["wall_time"]):
+            row["wall_time"] = float(entry["wall_time"])

@@ -152,7 +152,7 @@ def _select(items: list[str]) -> dict[str, Any]:
 
 
 def run_compare(args: argparse.Namespace) -> int:
-    """Handler of ``sacflow compare``: compute, write stem.nc + stem.png, print the numbers."""
+    """Handle ``sacflow compare``: compute, write stem.nc + stem.png, print the numbers."""
     from sacflow.compare.core import CompareError
     from sacflow.compare.output import summary, write
 

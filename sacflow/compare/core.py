@@ -241,7 +241,7 @@ def build(
 
 # --------------------------------------------------------------------------- runs
 def load_run(run: RunLike) -> xr.Dataset:
-    """The Dataset of a run (opened with :func:`sacflow.store.open_run` if a path)."""
+    """Return the Dataset of a run (opened with :func:`sacflow.store.open_run` if a path)."""
     if isinstance(run, xr.Dataset):
         ds = run
     else:
@@ -266,7 +266,7 @@ def _where(ds: xr.Dataset) -> str:
 
 
 def case_of(ds: xr.Dataset) -> Case:
-    """The :class:`~sacflow.schema.Case` stored in the run's attributes."""
+    """Return the :class:`~sacflow.schema.Case` stored in the run's attributes."""
     try:
         return Case.model_validate_json(ds.attrs["case"])
     except (KeyError, ValidationError, ValueError) as exc:

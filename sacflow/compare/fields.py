@@ -10,6 +10,7 @@ map is taken in the layer of the extreme residual stress.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any, Literal
 
 import numpy as np
 import xarray as xr
@@ -78,15 +79,17 @@ def _argext(field: xr.DataArray, fn) -> tuple[float, dict[str, float]]:
     """Extreme value of ``field`` (``np.nanargmin``/``np.nanargmax``) and its coordinates."""
     values = np.asarray(field.values, dtype=float)
     if not np.isfinite(values).any():
-        return np.nan, {d: np.nan for d in field.dims}
+        return np.nan, {str(d): np.nan for d in field.dims}
     flat = int(fn(values))
     where = np.unravel_index(flat, values.shape)
-    coords = {d: float(field[d].values[i]) for d, i in zip(field.dims, where, strict=True)}
+    coords = {str(d): float(field[d].values[i]) for d, i in zip(field.dims, where, strict=True)}
     return float(values.flat[flat]), coords
 
 
 def indentation_profiles(
-    run: RunLike, offsets: Sequence[float] = (0.0, 2e-6), method: str = "linear"
+    run: RunLike,
+    offsets: Sequence[float] = (0.0, 2e-6),
+    method: Literal["linear", "nearest"] = "linear",
 ) -> xr.Dataset:
     """Equivalent plastic strain and residual σ11, σ33 versus depth (seed Figs. 13–16).
 
@@ -122,8 +125,8 @@ def indentation_profiles(
     steps = {w: step_index(ds, name, w, stage) for w in ("max_load", "last")}
     axis = ds.isel(step=max_load_index(ds))
     c1, c2 = float(axis["load_x1"]), float(axis["load_x2"])
-    offsets = np.atleast_1d(np.asarray(offsets, dtype=float))
-    lateral = {"x1": xr.DataArray(c1 + offsets, dims="offset"), "x2": c2}
+    offset = np.atleast_1d(np.asarray(offsets, dtype=float))
+    lateral = {"x1": xr.DataArray(c1 + offset, dims="offset"), "x2": c2}
 
     def at(index: int, var: str, component: str | None = None, where=lateral) -> xr.DataArray:
         da = ds[var].isel(step=index)
@@ -153,7 +156,9 @@ def indentation_profiles(
     s33 = np.asarray(at(last, "residual_stress", "33", on_axis).values, dtype=float)
     x3 = np.asarray(ds["x3"].values, dtype=float)
     finite = np.isfinite(s11).any()
-    data = {k: (("when", "offset", "x3"), np.stack(v)) for k, v in profiles.items()}
+    data: dict[str, Any] = {
+        k: (("when", "offset", "x3"), np.stack(v)) for k, v in profiles.items()
+    }
     data.update(
         max_plastic_strain=peak,
         max_plastic_strain_x1=where["x1"],
@@ -175,8 +180,8 @@ def indentation_profiles(
         coords={
             "when": list(steps),
             "step": ("when", [int(ds["step"].values[i]) for i in steps.values()]),
-            "offset": offsets,
-            "profile_x1": ("offset", c1 + offsets),
+            "offset": offset,
+            "profile_x1": ("offset", c1 + offset),
             "x3": x3,
         },
         attrs={

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 import xarray as xr
+from numpy.typing import ArrayLike
 
 from sacflow.compare.core import (
     RunLike,
@@ -33,7 +34,8 @@ def hertz_approach(load: np.ndarray, radius: float, e_star: float) -> np.ndarray
     return np.reshape(np.array(out, dtype=float), loads.shape)
 
 
-def _relative(value: np.ndarray, reference: np.ndarray) -> np.ndarray:
+def _relative(value: ArrayLike, reference: ArrayLike) -> np.ndarray:
+    """Return ``(value − reference) / reference``, NaN where the reference is 0."""
     value, reference = np.asarray(value, dtype=float), np.asarray(reference, dtype=float)
     with np.errstate(divide="ignore", invalid="ignore"):
         return np.where(reference != 0.0, (value - reference) / reference, np.nan)

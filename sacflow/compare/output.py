@@ -67,7 +67,7 @@ def _value(value: float, units: str) -> str:
 
 
 def summary_numbers(result: xr.Dataset) -> dict[str, tuple[float, str]]:
-    """The summary numbers of a result: ``{name: (value, units)}`` of its 0-d variables (SI)."""
+    """Return a result's summary numbers: ``{name: (value, units)}`` of its 0-d variables (SI)."""
     return {
         str(name): (float(var), var.attrs.get("units", "1"))
         for name, var in result.data_vars.items()
@@ -76,7 +76,7 @@ def summary_numbers(result: xr.Dataset) -> dict[str, tuple[float, str]]:
 
 
 def summary(result: xr.Dataset) -> str:
-    """The summary numbers of a result (its 0-d variables) as a short text block."""
+    """Return the summary numbers of a result (its 0-d variables) as a short text block."""
     lines = [f"{result.attrs.get('stage', 'compare')}: {result.attrs.get('case', '')}"]
     numbers = summary_numbers(result)
     width = max((len(n) for n in numbers), default=0)

@@ -94,7 +94,7 @@ def elastic_vs_plastic(elastic: RunLike, plastic: RunLike) -> xr.Dataset:
 
 
 def asymmetry(x: np.ndarray, values: np.ndarray, centre: float) -> float:
-    """max |f(c + s) − f(c − s)| / |min f| over the points whose mirror lies on the profile.
+    """Return max |f(c + s) − f(c − s)| / |min f| over the points whose mirror is on the profile.
 
     ``f(c − s)`` is linearly interpolated; 0 for a profile symmetric about ``centre``.
     """
@@ -150,7 +150,7 @@ def _compressive_depth(ds: xr.Dataset, x2: float, stage: str) -> float:
 
 
 def _default_centre(ds: xr.Dataset) -> float:
-    """The first dent's x1 if the case is dented, else the load x1 at the maximum load."""
+    """Return the first dent's x1 if the case is dented, else the load x1 at the maximum load."""
     surface = case_of(ds).surface
     if surface.kind == "dented":
         return float(surface.dents[0].x1)

@@ -46,7 +46,7 @@ def _figure(result: xr.Dataset, what: str, panels: tuple[int, int] = (1, 1), siz
 
 
 def _label(reference: str) -> str:
-    """A short label for a reference: its file name."""
+    """Return a short label for a reference: its file name."""
     return Path(reference).name or reference
 
 
@@ -100,7 +100,7 @@ def plot_hertz_check(result: xr.Dataset) -> Figure:
 
 
 def plot_load_approach(result: xr.Dataset) -> Figure:
-    """Loading, unloading and shifted unloading branches with the elastic Hertz curve."""
+    """Plot the loading, unloading and shifted unloading branches with the elastic Hertz curve."""
     fig, axes = _figure(result, "load vs approach")
     ax = axes[0, 0]
     fw, wu = _scale("N", result["hertz_load"])
@@ -310,7 +310,8 @@ def plot_residual_map(result: xr.Dataset) -> Figure:
 def plot_campaign_summary(result: xr.Dataset, result_name: str = "max_plastic_strain") -> Figure:
     """``result_name`` versus the first swept parameter (one line per value of the second)."""
     if result_name not in result.data_vars:
-        raise KeyError(f"no result {result_name!r}; choose one of {', '.join(result.data_vars)}")
+        choices = ", ".join(map(str, result.data_vars))
+        raise KeyError(f"no result {result_name!r}; choose one of {choices}")
     params = result.attrs.get("parameters", "").split()
     meta = result[result_name].attrs
     fy, uy = _scale(meta.get("units", "1"), result[result_name])
@@ -407,7 +408,7 @@ PLOTS: dict[str, Callable[..., Figure]] = {
 
 
 def plot(result: xr.Dataset, **options) -> Figure:
-    """The figure of any stage result (dispatch on ``result.attrs["stage"]``)."""
+    """Return the figure of any stage result (dispatch on ``result.attrs["stage"]``)."""
     stage = result.attrs.get("stage")
     if stage not in PLOTS:
         raise ValueError(f"not a comparison result (stage {stage!r})")

@@ -41,7 +41,7 @@ def _read_csv(path: Path) -> pd.DataFrame:
 
 
 def _open_dataset(source: RunLike) -> tuple[xr.Dataset, str]:
-    """A reference Dataset: a run (via open_run) or any netCDF file, and its label."""
+    """Open a reference Dataset: a run (via open_run) or any netCDF file, and its label."""
     if isinstance(source, xr.Dataset):
         return source, case_name(source) if "case" in source.attrs else "reference"
     path = Path(source)
@@ -53,7 +53,9 @@ def _open_dataset(source: RunLike) -> tuple[xr.Dataset, str]:
             data = None if is_run else ds.load()
     except (OSError, ValueError, RuntimeError) as exc:
         raise CompareError(f"{path}: not a readable netCDF file ({exc})") from None
-    return (load_run(path) if is_run else data), str(path)
+    if data is None:  # a run: opened again with its steps
+        return load_run(path), str(path)
+    return data, str(path)
 
 
 def read_table(source: RunLike, columns: Sequence[str]) -> tuple[dict[str, np.ndarray], str]:
@@ -100,9 +102,8 @@ def select_field(
         chosen["step"] = int(ds["step"].values[index])
     for key, value in (select or {}).items():
         if key not in da.dims:
-            raise CompareError(
-                f"cannot select {key}={value!r}: {variable!r} has dimensions {', '.join(da.dims)}"
-            )
+            dims = ", ".join(map(str, da.dims))
+            raise CompareError(f"cannot select {key}={value!r}: {variable!r} has dimensions {dims}")
         coord = da[key]
         if np.issubdtype(coord.dtype, np.number):
             index = nearest_inside(ds, key, float(value), f"--select {key}")
@@ -124,7 +125,7 @@ def _reference_points(
     step: str | int,
     select: Mapping[str, Any] | None,
 ) -> tuple[pd.DataFrame, str]:
-    """The reference as a table: coordinate columns and a ``value_name`` column."""
+    """Return the reference as a table: coordinate columns and a ``value_name`` column."""
     if isinstance(reference, xr.Dataset) or Path(reference).suffix.lower() in _NETCDF:
         ref, label = _open_dataset(reference)
         if value_name not in ref.variables:
@@ -194,7 +195,7 @@ def case_vs_reference(
     field, chosen = select_field(ds, variable, step, select, stage)
     value_name = reference_variable or variable
     frame, label = _reference_points(reference, value_name, step, select)
-    dims = list(field.dims)
+    dims = [str(d) for d in field.dims]
     missing = [d for d in dims if d not in frame.columns]
     if missing:
         raise CompareError(

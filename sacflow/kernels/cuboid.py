@@ -1,4 +1,4 @@
-"""Stress of a cuboid of uniform eigenstrain in an infinite isotropic elastic space.
+r"""Stress of a cuboid of uniform eigenstrain in an infinite isotropic elastic space.
 
 Conventions
 -----------
@@ -19,8 +19,8 @@ solution ``G_ij = [(3 − 4ν) δ_ij / r + r_i r_j / r³] / (16 π μ (1 − ν)
 
 .. math::
 
-    u_i = -C_{jlmn} ε^*_{mn} \\int_V G_{ij,l}(x - x')\\, dV'
-        = \\frac{ψ_{,ijl} ε^*_{jl} - 2 ν ε^*_{mm} φ_{,i} - 4 (1 - ν) ε^*_{il} φ_{,l}}{8 π (1 - ν)},
+    u_i = -C_{jlmn} ε^*_{mn} \int_V G_{ij,l}(x - x')\, dV'
+        = \frac{ψ_{,ijl} ε^*_{jl} - 2 ν ε^*_{mm} φ_{,i} - 4 (1 - ν) ε^*_{il} φ_{,l}}{8 π (1 - ν)},
 
 with the potentials ``φ = ∫_V dV'/|x − x'|`` and ``ψ = ∫_V |x − x'| dV'`` (``∇²ψ = 2φ``,
 ``∇²φ = −4π H``).  The displacement gradient needs ``ψ_,ijkl`` and ``φ_,ij``.  Over a box each is
@@ -117,7 +117,7 @@ def _unit_tensor(source: int) -> np.ndarray:
 
 
 def _corner_sums(y0, y1, y2, h):
-    """Basic 8-corner sums for field points ``y`` (dimensionless, broadcastable) and box ``h``.
+    """Compute the 8-corner sums for field points ``y`` (dimensionless, broadcastable), box ``h``.
 
     Returns ``T[i] = Σ s atan(y_j y_k / (y_i R))``, ``L[k] = Σ s asinh(y_k / ρ_ij)``,
     ``Q[k] = Σ s y_1 y_2 y_3 / (ρ_ij² R)``, ``M[(i, j)] = Σ s y_i² y_k / (ρ_ij² R)`` and
@@ -253,9 +253,10 @@ def _blocked(xs, shape, half, sources, nu, mu):
                     for d, s in enumerate(sl)
                 )
                 part.append(a[idx] / scale)
-            inside = (np.abs(part[0]) < h[0]) & (np.abs(part[1]) < h[1]) & (np.abs(part[2]) < h[2])
+            y0, y1, y2 = part
+            inside = (np.abs(y0) < h[0]) & (np.abs(y1) < h[1]) & (np.abs(y2) < h[2])
             with np.errstate(divide="ignore", invalid="ignore"):
-                sums = _corner_sums(*part, h)
+                sums = _corner_sums(y0, y1, y2, h)
                 out[sl] = _stress_from_sums(sums, inside, sources, nu, mu)
     return out
 
@@ -267,11 +268,7 @@ def _odd_count(c: int, axis: int) -> int:
 
 def _evaluate(x1, x2, x3, half, sources, nu, mu):
     """Stress columns ``(…, 6, len(sources))``; uses reflection symmetry on separable grids."""
-    half = tuple(float(h) for h in half)
-    if any(not (h > 0.0 and math.isfinite(h)) for h in half):
-        raise ValueError(f"cuboid half sizes must be positive and finite, got {half}")
-    if not (-1.0 < nu < 0.5):
-        raise ValueError(f"Poisson ratio must lie in (-1, 0.5), got {nu}")
+    half = _checked(half, nu)
     xs, shape = _aligned((x1, x2, x3))
     axes = [[d for d, n in enumerate(a.shape) if n > 1] for a in xs]
     varying = [a[0] for a in axes if a]
@@ -292,6 +289,26 @@ def _evaluate(x1, x2, x3, half, sources, nu, mu):
     for a, inv in zip(axes, inverse, strict=True):
         if a:
             out = np.take(out, inv, axis=a[0])
+    _mirror_signs(out, sources, signs)
+    return out
+
+
+def _checked(half, nu) -> tuple[float, float, float]:
+    """Return the half sizes as floats after checking them and the Poisson ratio."""
+    half = tuple(float(h) for h in half)
+    if any(not (h > 0.0 and math.isfinite(h)) for h in half):
+        raise ValueError(f"cuboid half sizes must be positive and finite, got {half}")
+    if not (-1.0 < nu < 0.5):
+        raise ValueError(f"Poisson ratio must lie in (-1, 0.5), got {nu}")
+    return half
+
+
+def _mirror_signs(out: np.ndarray, sources, signs: list[np.ndarray]) -> None:
+    """Apply in place the sign ``S_i A S_i`` of each reflected axis to the mirrored columns.
+
+    Entry ``(c, d)`` changes sign under the reflection of an axis when that axis appears an odd
+    number of times in ``c`` and ``d`` together; ``signs[axis]`` is −1 where ``x_axis < 0``.
+    """
     for col, d in enumerate(sources):
         for c in range(6):
             factor = None
@@ -300,7 +317,6 @@ def _evaluate(x1, x2, x3, half, sources, nu, mu):
                     factor = signs[axis] if factor is None else factor * signs[axis]
             if factor is not None:
                 out[..., c, col] *= factor
-    return out
 
 
 def cuboid_stress(x1, x2, x3, half1, half2, half3, nu, mu) -> np.ndarray:
@@ -364,7 +380,7 @@ def cuboid_stress_component(x1, x2, x3, half1, half2, half3, nu, mu, source: int
 
 
 def kelvin_displacement_gradient(r1, r2, r3, nu, mu) -> np.ndarray:
-    """Gradient of Kelvin's point-force solution in an infinite isotropic space.
+    r"""Gradient of Kelvin's point-force solution in an infinite isotropic space.
 
     ``u_i(x) = G_ij(x − x') F_j`` with
     ``G_ij(r) = [(3 − 4ν) δ_ij / r + r_i r_j / r³] / (16 π μ (1 − ν))`` (Mura 1987, eq. 5.19),
@@ -372,7 +388,7 @@ def kelvin_displacement_gradient(r1, r2, r3, nu, mu) -> np.ndarray:
 
     .. math::
 
-        G_{ij,k} = \\frac{-(3 - 4ν) δ_{ij} r_k + δ_{ik} r_j + δ_{jk} r_i - 3 r_i r_j r_k / r^2}
+        G_{ij,k} = \frac{-(3 - 4ν) δ_{ij} r_k + δ_{ik} r_j + δ_{jk} r_i - 3 r_i r_j r_k / r^2}
                         {16 π μ (1 - ν) r^3}.
 
     Parameters
@@ -403,15 +419,15 @@ def kelvin_displacement_gradient(r1, r2, r3, nu, mu) -> np.ndarray:
 
 
 def eigenstrain_stress_by_quadrature(x, half, nu, mu, source, order, panels=1) -> np.ndarray:
-    """Slow reference: stress of a cuboid eigenstrain by quadrature of Kelvin's solution.
+    r"""Slow reference: stress of a cuboid eigenstrain by quadrature of Kelvin's solution.
 
     Independent of the potentials used by :func:`cuboid_stress`: a uniform eigenstrain ``ε*`` in
     ``V`` is equivalent to the surface tractions ``t = (C:ε*) n`` on ``∂V`` (outward normal), so
 
     .. math::
 
-        u_{i,k}(x) = \\oint_{∂V} G_{ij,k}(x - x') (C:ε^*)_{jl} n_l\\, dS',\\qquad
-        σ = C:(\\operatorname{sym}∇u − ε^* H),
+        u_{i,k}(x) = \oint_{∂V} G_{ij,k}(x - x') (C:ε^*)_{jl} n_l\, dS',\qquad
+        σ = C:(\operatorname{sym}∇u − ε^* H),
 
     integrated with Gauss–Legendre rules (``order`` points per direction on each of
     ``panels × panels`` panels of every face).  Smooth, hence spectrally convergent, for points

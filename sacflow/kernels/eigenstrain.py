@@ -34,10 +34,9 @@ odd sequence as ``−i`` times its sine transform, the products are real combina
 ``R_c = Σ_d σ_cd G_cd S_d`` with ``σ_cd = −1`` for an even output and an odd input. Depth
 frequency m = 0 … N (sines: 1 … N) is plane m of the spectra. The transforms run in place on the
 footprint lines of the real buffer; FFTW's real-to-real transforms are slow on the spectral side
-(no SIMD codelets: 18 ms instead of 3 ms for a complex pass on a 64 × 64 × 32-cuboid grid),
-cheap on the ``n1 n2`` real footprint lines. Then pruned 2-D real FFTs (x1, x2) on ``N + 1``
-planes. This replaced a 3-D FFT with a separate mirror kernel (a correlation in x3): one kernel
-set instead of two, all of them real.
+(no SIMD codelets: several times a complex pass), cheap on the ``n1 n2`` real footprint lines.
+Then pruned 2-D real FFTs (x1, x2) on ``N + 1`` planes. This replaced a 3-D FFT with a separate
+mirror kernel (a correlation in x3): one kernel set instead of two, all of them real.
 
 Products. Reciprocity (Betti) makes the weighted kernels ``w_c A_cd`` (``w = 1`` for normal,
 2 for shear components) symmetric; with ``σ`` the even–odd block is antisymmetric. Their
@@ -110,7 +109,7 @@ def _check_transpose(stored: np.ndarray, other: np.ndarray, odd: bool, c: int, d
 
 
 def _real_part(spectrum: np.ndarray, odd: bool, c: int, d: int) -> np.ndarray:
-    """The real part of an even pair's spectrum, the imaginary part of an odd pair's.
+    """Return the real part of an even pair's spectrum, the imaginary part of an odd pair's.
 
     Their parities make the spectra of even pairs real and those of odd pairs (one odd lateral
     axis) imaginary; the other part must vanish (to 1e-9), else ``RuntimeError``.
@@ -153,15 +152,18 @@ def _depth_spectrum(lateral: np.ndarray, odd: bool) -> np.ndarray:
 
 
 def _depth_basis(N: int, n3: int, odd: bool) -> np.ndarray:
-    """``cos`` (even) or ``sin`` (odd) of ``π m (j + ½) / N`` for depth frequencies m = 0 … N and
-    layers j < n3: DCT-II/DST-II analysis (times 2) and, with weights 1, 2, …, 2, 1 and 1/(2N),
-    DCT-III/DST-III synthesis (FFTW's REDFT10/RODFT10 and REDFT01/RODFT01)."""
+    """Return the depth basis: ``cos`` (even) or ``sin`` (odd) of ``π m (j + ½) / N``.
+
+    Depth frequencies m = 0 … N, layers j < n3: DCT-II/DST-II analysis (times 2) and, with
+    weights 1, 2, …, 2, 1 and 1/(2N), DCT-III/DST-III synthesis (FFTW's REDFT10/RODFT10 and
+    REDFT01/RODFT01).
+    """
     angle = np.pi * np.outer(np.arange(N + 1), np.arange(n3) + 0.5) / N
     return np.sin(angle) if odd else np.cos(angle)
 
 
 def _padded(shape: Sequence[int]) -> tuple[int, int, int]:
-    """Padded lateral lengths (L1, L2) and the depth transform length N ≥ 2 n3."""
+    """Return the padded lateral lengths (L1, L2) and the depth transform length N ≥ 2 n3."""
     n1, n2, n3 = shape
     return padded_length(n1, n1), padded_length(n2, n2), padded_length(n3, n3 + 1)
 
@@ -265,9 +267,8 @@ class HalfSpaceEigenstrain:
         )
         lines_in[...] = 0.0  # measured planning wrote into them
         self._fft2 = RealFFT((1, L1, L2), 2, threads)
-        # Threads of the spectral products (the compiled loop releases the GIL). Measured on a
-        # quiet 2-core machine, two threads vs one: 32 × 32 × 16 cuboids 1.3 vs 1.6 ms,
-        # 64 × 64 × 32 7.5 vs 14 ms.
+        # Threads of the spectral products (the compiled loop releases the GIL; a second
+        # thread gains most on large grids, docs/performance.md).
         self.threads = int(threads or default_threads())
         self._executor: ThreadPoolExecutor | None = None
         workers = min(self.threads, N + 1)  # contiguous ranges of depth frequencies, one each
@@ -291,7 +292,7 @@ class HalfSpaceEigenstrain:
         return (o1 * d1)[:, None], (o2 * d2)[None, :], used
 
     def _pair_kernels(self, threads: int | None):
-        """The 21 stored pair spectra (weighted, normalised), point-major (N + 1, L1, L2h, 21).
+        """Compute 21 stored pair spectra (weighted, normalised), point-major (N+1, L1, L2h, 21).
 
         The infinite-space kernel ``A_cd(x1, x2, o d3)`` is evaluated for depth offsets
         ``o = 0 … N`` (zero at ``o = N``, which no pair of cells needs), transformed laterally,
@@ -308,7 +309,7 @@ class HalfSpaceEigenstrain:
         used = used[None] & (np.arange(N + 1) < N)[:, None, None]
         norm = 1.0 / (2 * N * L1 * L2)
         # numba is imported with the first operator (not with the solver: elastic runs and
-        # campaign workers of elastic cases skip its import, ~0.2 s).
+        # campaign workers of elastic cases skip its slow import).
         from sacflow.kernels.pair_products import PAIRS
 
         slot = {pair: k for k, pair in enumerate(PAIRS)}
@@ -337,8 +338,10 @@ class HalfSpaceEigenstrain:
         return kernels
 
     def _layer_kernels(self, threads: int | None) -> tuple[np.ndarray, np.ndarray]:
-        """Depth-frequency spectra of the surface traction of 1+2 and the surface displacement,
-        stacked (2, 6, N + 1, L1, L2h), and of the traction correction (6, N + 1, L1, L2h).
+        """Compute the depth-frequency spectra of the surface terms and the traction correction.
+
+        Spectra of the surface traction of 1+2 and of the surface displacement, stacked
+        (2, 6, N + 1, L1, L2h), and of the traction correction (6, N + 1, L1, L2h).
 
         Traction and displacement: ``Σ_d Σ_m S_d(m) K_d(m)`` over the eigenstrain's depth
         spectra ``S`` equals the layer sum ``Σ_d Σ_j T_d(j) ε̂_d(j)`` with ``ε̂_d(j)`` the inverse
@@ -487,7 +490,7 @@ class HalfSpaceEigenstrain:
 def eigenstrain_operator(
     shape: tuple[int, int, int], spacing: tuple[float, float, float], E: float, nu: float
 ) -> HalfSpaceEigenstrain:
-    """Cached :class:`HalfSpaceEigenstrain` for (shape, spacing, E, ν)."""
+    """Return the cached :class:`HalfSpaceEigenstrain` for (shape, spacing, E, ν)."""
     return HalfSpaceEigenstrain(shape, spacing, E, nu)  # threads: SACFLOW_FFT_THREADS or cores
 
 
@@ -530,7 +533,7 @@ def residual_stress(plastic_strain: np.ndarray, spacing, E: float, nu: float) ->
 
 
 def residual_displacement(plastic_strain: np.ndarray, spacing, E: float, nu: float) -> np.ndarray:
-    """Normal surface displacement [m] (positive into the body) of a plastic-strain field.
+    """Compute the normal surface displacement [m] (into the body) of a plastic-strain field.
 
     Same arguments as :func:`residual_stress`; returns an (n1, n2) array on the surface cells
     above the box (seed eq. 1.23, reciprocal theorem).

@@ -15,7 +15,7 @@ Conventions
   the cached kernel spectra, so ``inverse(forward(x) · K̂)`` needs no extra pass.
 * pyfftw plans and their aligned buffers are built once per operator (FFTW's own wisdom makes
   re-planning a known shape cheap); ``scipy.fft`` is the fallback when pyfftw is not importable,
-  imported only then (it takes 0.13 s to import, a seventh of a campaign worker's start).
+  imported only then (its import is a sizeable part of a campaign worker's start).
 """
 
 from __future__ import annotations
@@ -24,6 +24,7 @@ import functools
 import os
 import sys
 from collections.abc import Callable, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -39,9 +40,8 @@ def _import_pyfftw():
 
     pyfftw's package imports ``pyfftw.interfaces.dask_fft`` whenever dask is installed and
     ``pyfftw.interfaces.scipy_fft`` whenever scipy is, and with them the modules of
-    :data:`_PYFFTW_OPTIONAL`. Measured on the development machine (numpy loaded, 3 runs each),
-    pyfftw imports in 0.73-0.79 s, 0.18-0.25 s with ``dask.array`` blocked, 0.01 s with both
-    blocked: time paid by every ``sacflow`` command and every campaign worker. sacflow uses only
+    :data:`_PYFFTW_OPTIONAL`, which make its import many times slower (``docs/performance.md``):
+    time paid by every ``sacflow`` command and every campaign worker. sacflow uses only
     ``pyfftw.FFTW``: the modules not loaded already are blocked (an ImportError, which pyfftw
     catches) while pyfftw is imported, and are importable again afterwards.
     """
@@ -73,18 +73,16 @@ __all__ = [
 ]
 
 
-#: Time limit of one measured 3-D plan [s]: FFTW keeps the best plan found by then. Measured for
-#: a 64 × 64 × 32-cuboid eigenstrain operator (12 plans): no limit, set-up 8.0 s and 63 ms per
-#: application; 0.3 s, 6.2 s and 67 ms.
+#: Time limit of one measured 3-D plan [s]: FFTW keeps the best plan found by then. A longer
+#: search lengthens the operator's set-up for plans hardly faster (``docs/performance.md``).
 _PLANNING_SECONDS = 0.3
-#: Transforms with fewer points (batch included) run on one thread. Measured on a quiet 2-core
-#: machine: the rolling benchmark (6 × 21 × 130 × 48-point batches) runs in a median 18.2 s with
-#: 2^18 and 21.6 s with 2^20; a 256² contact solve (512² transforms) in 0.097 s, not 0.158 s.
+#: Transforms with fewer points (batch included) run on one thread: below it FFTW's thread
+#: synchronisation costs more than a second thread gains (``docs/performance.md``).
 _THREADED_POINTS = 1 << 18
 
 
 def default_threads() -> int:
-    """Number of FFT threads: ``SACFLOW_FFT_THREADS`` or the number of usable cores.
+    """Return the number of FFT threads: ``SACFLOW_FFT_THREADS`` or the number of usable cores.
 
     A value that is not a whole number >= 1 raises
     :class:`~sacflow.errors.EnvironmentVariableError` (see :mod:`sacflow.environment`).
@@ -106,12 +104,11 @@ def _planner(points: int, ndim: int, one_shot: bool = False) -> tuple[str, float
     """FFTW planner rigour and planning time limit [s] for a transform of ``points`` points.
 
     ``SACFLOW_FFTW_PLANNER=estimate|measure`` forces the rigour; by default large transforms are
-    measured and small ones (and plans run once, ``one_shot``) estimated. Measured on this
-    project's 2-core machine: a 1024² real transform pair runs 1.6× faster with a measured plan,
-    which takes 0.6 s to make (FFTW keeps it for the rest of the process); below ~2^18 points
-    planning costs more than a whole run of small cases gains. Measured 3-D plans are limited
-    to :data:`_PLANNING_SECONDS` each; 2-D plans are not (their full search is what brings the
-    512² contact solve under 1 s).
+    measured and small ones (and plans run once, ``one_shot``) estimated: a measured plan of a
+    large transform runs markedly faster and FFTW keeps it for the rest of the process, while
+    below ~2^18 points planning costs more than a whole run of small cases gains
+    (``docs/performance.md``). Measured 3-D plans are limited to :data:`_PLANNING_SECONDS` each;
+    2-D plans are not (their full search is what makes a large contact solve fast).
     """
     if one_shot:
         return "FFTW_ESTIMATE", None
@@ -214,8 +211,8 @@ class RealFFT:
         self.ndim = ndim
         self.size = int(np.prod(self.shape[-ndim:]))
         # Threads help only for large enough transforms; on small ones FFTW's synchronisation
-        # costs more than it saves (measured: a 256² transform is ~15× slower with 2 threads
-        # when the other core is busy). Campaign workers run on one thread each.
+        # costs more than it saves, by far when the other core is busy. Campaign workers run on
+        # one thread each.
         total = int(np.prod(self.shape))
         self.threads = threads or (default_threads() if total >= _THREADED_POINTS else 1)
         self.axes = tuple(range(len(self.shape) - ndim, len(self.shape)))
@@ -230,12 +227,14 @@ class RealFFT:
             self.real = pyfftw.empty_aligned(self.shape, dtype="float64")
             self.spectrum = pyfftw.empty_aligned(spec_shape, dtype="complex128")
             self._planner, self._time_limit = _planner(self.size, ndim, one_shot)
-            if self._prunable(in_extent):
-                self._fwd_stages = self._forward_stages(tuple(int(e) for e in in_extent))
+            in_block = self._pruned_extent(in_extent)
+            if in_block is not None:
+                self._fwd_stages = self._forward_stages(in_block)
             else:
                 self._fwd = self._plan(self.real, self.spectrum, self.axes, "FFTW_FORWARD")
-            if self._prunable(out_extent):
-                self._inv_stages = self._inverse_stages(tuple(int(e) for e in out_extent))
+            out_block = self._pruned_extent(out_extent)
+            if out_block is not None:
+                self._inv_stages = self._inverse_stages(out_block)
             else:
                 self._inv = self._plan(
                     self.spectrum, self.real, self.axes, "FFTW_BACKWARD", destroy=True
@@ -246,15 +245,18 @@ class RealFFT:
             self.real = np.zeros(self.shape)
             self.spectrum = np.zeros(spec_shape, dtype=complex)
 
-    def _prunable(self, extent: Sequence[int] | None) -> bool:
+    def _pruned_extent(self, extent: Sequence[int] | None) -> tuple[int, ...] | None:
+        """Return ``extent`` as integers when the transform can skip lines, else None."""
         if extent is None or self.ndim < 2:
-            return False
+            return None
         if len(extent) != self.ndim:
             raise ValueError(f"extent {tuple(extent)} must give one length per transformed axis")
         full = self.shape[-self.ndim:]
         if any(not 0 < e <= n for e, n in zip(extent, full, strict=True)):
             raise ValueError(f"extent {tuple(extent)} outside the grid {full}")
-        return any(e < n for e, n in zip(extent[:-1], full[:-1], strict=True))
+        if any(e < n for e, n in zip(extent[:-1], full[:-1], strict=True)):
+            return tuple(int(e) for e in extent)
+        return None
 
     def _plan(self, a, b, axes, direction: str, destroy: bool = False):
         flags = (self._planner,) + (("FFTW_DESTROY_INPUT",) if destroy else ())
@@ -273,9 +275,8 @@ class RealFFT:
         # padding zero, an inverse through the same buffer does not (cleared after one, below).
         tail = self._block(ext[:-1] + (None,))[:-1] + (slice(ext[-1], None),)
         self._real_tail = tail if ext[-1] < self.shape[-1] else None
-        stages = [(None,
-                   self._plan(self.real[block], self.spectrum[block], (axes[-1],),
-                              "FFTW_FORWARD"))]
+        first = self._plan(self.real[block], self.spectrum[block], (axes[-1],), "FFTW_FORWARD")
+        stages: list[tuple[tuple | None, Any]] = [(None, first)]
         for j in range(k - 2, -1, -1):  # complex passes, from the second-to-last axis back
             lines = self._block(ext[:j] + (None,) * (k - j))
             view = self.spectrum[lines]
@@ -375,9 +376,9 @@ class RealToReal:
         threads = threads or (default_threads() if src.size >= _THREADED_POINTS else 1)
         self._plan = None
         if HAVE_PYFFTW:
-            # FFTW's estimated real-to-real plans are slow on batches of strided lines (a
-            # 64×64×32-cuboid eigenstrain grid: 9.8 ms estimated, 1.3 ms measured): always
-            # measure, within the time limit of 3-D plans (src is overwritten while planning).
+            # FFTW's estimated real-to-real plans are several times slower than measured ones on
+            # batches of strided lines: always measure, within the time limit of 3-D plans (src
+            # is overwritten while planning).
             forced = fftw_planner_from_env() == "estimate"
             flag = "FFTW_ESTIMATE" if forced else "FFTW_MEASURE"
             self._plan = pyfftw.FFTW(src, dst, axes=(axis,), direction=[kind], flags=(flag,),

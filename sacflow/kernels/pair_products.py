@@ -6,10 +6,9 @@ The residual stress of an eigenstrain field is, in the operator's depth-frequenc
 imaginary: the 4 × 4 block of the components even in x3 (11 22 33 12) and the 2 × 2 block of
 the odd ones (13 23) are real and symmetric, the even–odd block is ``i`` times a real 4 × 2
 block, antisymmetric under transposition. numpy needs one call per elementwise operation (about
-150 per slab of spectral points); this compiled loop reads each input, kernel and output once
-(measured, 32 × 32 × 16 cuboids, two threads: 1.3 ms instead of 4.4 ms; 64 × 64 × 32: 7.5 ms
-instead of 26 ms). :func:`depth_sums` contracts the spectra over depth frequency and component
-for the surface fields (numpy's einsum: 116 ms for 128 × 128 × 64 cuboids).
+150 per slab of spectral points); this compiled loop reads each input, kernel and output once,
+several times faster (``docs/performance.md``). :func:`depth_sums` contracts the spectra over
+depth frequency and component for the surface fields, where numpy's einsum was slow.
 """
 
 from __future__ import annotations

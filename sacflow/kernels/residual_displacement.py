@@ -91,9 +91,8 @@ Performance.  Inputs whose coordinates vary along disjoint axes (x1 with half1, 
 half2, c3 with half3, as from ``np.meshgrid(..., sparse=True)`` or ``x[:, None, None]``...)
 are evaluated on the lattice of distinct corner coordinates (shared by neighbouring cells) one
 depth plane at a time and differenced, after folding x1, x2 to >= 0 with the parities of K
-(12, 13 odd in x1; 12, 23 odd in x2); other inputs by an 8-corner loop in blocks.  The folded
-lattice costs ≈ 1 s for 1000 × 1000 offsets × 64 depths; writing the 3 GB result about as
-much again (2-core machine, 3–9 s in total depending on load).
+(12, 13 odd in x1; 12, 23 odd in x2); other inputs by an 8-corner loop in blocks.  On large
+grids writing the result costs about as much as the folded lattice (``docs/performance.md``).
 
 References
 ----------

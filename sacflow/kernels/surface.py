@@ -109,13 +109,13 @@ def _check_depth(x3: NDArray[np.float64]) -> None:
 
 
 def _safe_div(num: NDArray[np.float64], den: NDArray[np.float64]) -> NDArray[np.float64]:
-    """num / den, with 0 where den == 0 (limits that the callers know to be 0 or irrelevant)."""
+    """Divide num by den, with 0 where den == 0 (limits the callers know to be 0 or irrelevant)."""
     zero = den == 0.0
     return np.where(zero, 0.0, num / np.where(zero, 1.0, den))
 
 
 def _x_asinh(x: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64]:
-    """x asinh(y/|x|), continuous with value 0 at x = 0."""
+    """Return x asinh(y/|x|), continuous with value 0 at x = 0."""
     ax = np.abs(x)
     with np.errstate(divide="ignore", invalid="ignore"):
         val = x * np.arcsinh(y / np.where(ax == 0.0, 1.0, ax))

@@ -1,0 +1,202 @@
+"""Fixed points ``x = G(x)``: Anderson-accelerated sweeps with a semismooth Newton–Krylov fallback.
+
+The plastic strain increment of a load step is such a fixed point (seed §1.7, Figs. 4–5): ``G``
+is the J2 radial return of the trial stress, piecewise smooth in ``x``. Sweeps accelerated by
+Anderson mixing (:mod:`sacflow.anderson`; Walker & Ni, SIAM J. Numer. Anal. 49 (2011) 1715) solve
+most steps in a few evaluations. When the plastic zone changes (cells entering or leaving the
+active set) the sweeps can stall; the solver then switches to semismooth Newton on
+``F(x) = G(x) − x`` (Qi & Sun, Math. Program. 58 (1993) 353): the generalised Jacobian
+``J = I − ∂G/∂x`` is given by the caller as a matrix-free operator, inverted inexactly by
+restarted GMRES (Saad & Schultz 1986; forcing term as in Eisenstat & Walker, SIAM J. Sci. Comput.
+17 (1996) 16: the linear tolerance follows the nonlinear residual), with a backtracking line
+search on the residual.
+
+Nothing here knows about contact or plasticity: the caller's ``evaluate(x)`` returns ``G(x)``,
+the relative residual it converges on, and any data its Jacobian needs.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from sacflow.anderson import AndersonMixer
+
+__all__ = [
+    "Evaluation",
+    "FixedPointError",
+    "FixedPointResult",
+    "NewtonSettings",
+    "solve_fixed_point",
+]
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class NewtonSettings:
+    """The constants of the stall test, the Newton–Krylov fallback and its line search.
+
+    Attributes
+    ----------
+    progress_ratio : float
+        A residual counts as progress when it is below this fraction of the best one so far
+        (with Anderson) or of the previous one (plain sweeps).
+    stall_sweeps : int
+        Anderson sweeps without progress after which Newton takes over.
+    gmres_restart : int
+        Krylov subspace size before GMRES restarts.
+    gmres_restarts : int
+        GMRES restart cycles per Newton step (the linear solve is inexact on purpose).
+    gmres_rtol_loosest, gmres_rtol_tightest : float
+        Bounds of the relative GMRES tolerance, which otherwise equals the current nonlinear
+        residual (a forcing term: loose far from the solution, tight near it).
+    line_search_halvings : int
+        Times a Newton step may be halved while it does not lower the residual.
+    shortest_step : float
+        Step length below which the line search accepts the step anyway (it must move).
+    """
+
+    progress_ratio: float = 0.5
+    stall_sweeps: int = 25
+    gmres_restart: int = 30
+    gmres_restarts: int = 4
+    gmres_rtol_loosest: float = 0.1
+    gmres_rtol_tightest: float = 1e-4
+    line_search_halvings: int = 6
+    shortest_step: float = 0.05
+
+
+@dataclass(frozen=True)
+class Evaluation:
+    """One evaluation of ``G`` at ``x``: ``G(x)``, the relative residual, the caller's data."""
+
+    gx: np.ndarray
+    residual: float
+    data: Any = None
+
+
+@dataclass(frozen=True)
+class FixedPointResult:
+    """The accepted iterate ``x``, its evaluation, and how many sweeps and Newton steps it took."""
+
+    x: np.ndarray
+    evaluation: Evaluation
+    sweeps: int
+    newton_steps: int
+
+
+class FixedPointError(ArithmeticError):
+    """The iteration limit was reached; ``residual`` is the last relative residual."""
+
+    def __init__(self, residual: float, iterations: int) -> None:
+        self.residual = residual
+        self.iterations = iterations
+        super().__init__(f"no fixed point after {iterations} iterations: residual {residual:.3e}")
+
+
+Evaluate = Callable[[np.ndarray], Evaluation]
+#: ``jacobian(x, evaluation)`` -> a linear operator (``scipy.sparse.linalg.LinearOperator`` or
+#: anything :func:`scipy.sparse.linalg.gmres` accepts) applying ``I − ∂G/∂x`` to flat vectors.
+Jacobian = Callable[[np.ndarray, Evaluation], Any]
+
+
+def solve_fixed_point(
+    evaluate: Evaluate,
+    x: np.ndarray,
+    converged: Callable[[np.ndarray, Evaluation], bool],
+    *,
+    max_iterations: int,
+    anderson_depth: int = 0,
+    jacobian: Jacobian | None = None,
+    settings: NewtonSettings = NewtonSettings(),  # noqa: B008 (frozen, never mutated)
+    label: str = "fixed point",
+) -> FixedPointResult:
+    """Find ``x = G(x)`` from the start ``x``.
+
+    Parameters
+    ----------
+    evaluate : callable
+        ``evaluate(x) -> Evaluation`` with ``G(x)`` and the relative residual of ``x``.
+    x : ndarray
+        Starting iterate (any shape; ``G(x)`` has the same).
+    converged : callable
+        ``converged(x, evaluation) -> bool``: accept ``x``.
+    max_iterations : int
+        Limit on sweeps plus Newton steps.
+    anderson_depth : int
+        Anderson history depth; 0 for plain sweeps (which hand over to Newton as soon as a sweep
+        fails to halve the residual).
+    jacobian : callable, optional
+        ``jacobian(x, evaluation)``: the operator ``I − ∂G/∂x`` at ``x`` (see :data:`Jacobian`).
+        Without it the sweeps go on to the limit.
+    settings : NewtonSettings
+        Stall test, GMRES and line-search constants.
+    label : str
+        Name in the debug log.
+
+    Returns
+    -------
+    FixedPointResult
+
+    Raises
+    ------
+    FixedPointError
+        After ``max_iterations`` sweeps and Newton steps without convergence.
+    """
+    shape = x.shape
+    ev = evaluate(x)
+    newton, previous, best, stalled = False, np.inf, np.inf, 0
+    sweeps = newton_steps = 0
+    mixer = AndersonMixer(anderson_depth) if anderson_depth else None
+    for iteration in range(1, max_iterations + 1):
+        if converged(x, ev):
+            return FixedPointResult(x, ev, sweeps, newton_steps)
+        if mixer is None:
+            newton = newton or ev.residual > settings.progress_ratio * previous
+        else:  # Anderson stalls on some active-set changes: fall back to Newton
+            if ev.residual < settings.progress_ratio * best:
+                best, stalled = ev.residual, 0
+            stalled += 1
+            newton = newton or stalled > settings.stall_sweeps
+        previous = ev.residual
+        if not newton or jacobian is None:
+            x = ev.gx if mixer is None else mixer.step(x.ravel(), ev.gx.ravel()).reshape(shape)
+            ev = evaluate(x)
+            sweeps += 1
+            log.debug("%s sweep %d: residual %.3e", label, iteration, ev.residual)
+            continue
+        x, ev = _newton_step(evaluate, jacobian, x, ev, settings, label)
+        newton_steps += 1
+    raise FixedPointError(ev.residual, max_iterations)
+
+
+def _newton_step(
+    evaluate: Evaluate,
+    jacobian: Jacobian,
+    x: np.ndarray,
+    ev: Evaluation,
+    settings: NewtonSettings,
+    label: str,
+) -> tuple[np.ndarray, Evaluation]:
+    """One inexact Newton step on ``F(x) = G(x) − x`` with a backtracking line search."""
+    from scipy.sparse.linalg import gmres  # only when a step stalls
+
+    rtol = max(min(settings.gmres_rtol_loosest, ev.residual), settings.gmres_rtol_tightest)
+    delta, _ = gmres(jacobian(x, ev), (ev.gx - x).ravel(), rtol=rtol, atol=0.0,
+                     restart=settings.gmres_restart, maxiter=settings.gmres_restarts)
+    delta = delta.reshape(x.shape)
+    length = 1.0
+    for _ in range(settings.line_search_halvings):
+        x_try = x + length * delta
+        ev_try = evaluate(x_try)
+        if ev_try.residual < ev.residual or length < settings.shortest_step:
+            break
+        length *= 0.5
+    log.debug("%s newton: residual %.3e -> %.3e (step length %.3g)", label, ev.residual,
+              ev_try.residual, length)
+    return x_try, ev_try

@@ -1,0 +1,141 @@
+"""The fixed-point solver on small problems with known solutions (no contact, no plasticity)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+from scipy.sparse.linalg import LinearOperator
+
+from sacflow.nonlinear import (
+    Evaluation,
+    FixedPointError,
+    NewtonSettings,
+    solve_fixed_point,
+)
+
+TOL = 1e-12
+
+
+def relative(gx: np.ndarray, x: np.ndarray) -> float:
+    return float(np.abs(gx - x).max() / max(np.abs(gx).max(), np.abs(x).max(), 1e-300))
+
+
+def below_tol(x, ev: Evaluation) -> bool:
+    return ev.residual < TOL
+
+
+def linear_problem(n: int = 40, radius: float = 0.95, seed: int = 0):
+    """G(x) = A x + b with A symmetric, spectral radius ``radius``: x* = (I − A)⁻¹ b."""
+    rng = np.random.default_rng(seed)
+    q, _ = np.linalg.qr(rng.standard_normal((n, n)))
+    a = q @ np.diag(np.linspace(-radius, radius, n)) @ q.T
+    b = rng.standard_normal(n)
+    calls = []
+
+    def evaluate(x):
+        calls.append(1)
+        gx = a @ x + b
+        return Evaluation(gx, relative(gx, x))
+
+    return evaluate, np.linalg.solve(np.eye(n) - a, b), calls
+
+
+def test_plain_sweeps_converge_on_a_contraction():
+    evaluate, exact, calls = linear_problem()
+    out = solve_fixed_point(evaluate, np.zeros_like(exact), below_tol, max_iterations=2000)
+    assert_allclose(out.x, exact, rtol=0, atol=1e-10 * np.abs(exact).max())
+    assert out.newton_steps == 0 and out.sweeps == len(calls) - 1
+    # Picard contracts by the spectral radius per sweep: about log(1e-12)/log(0.95) sweeps
+    assert out.sweeps > 400
+
+
+def test_anderson_needs_far_fewer_evaluations():
+    evaluate, exact, _ = linear_problem()
+    plain = solve_fixed_point(evaluate, np.zeros_like(exact), below_tol, max_iterations=2000)
+    out = solve_fixed_point(evaluate, np.zeros_like(exact), below_tol, max_iterations=2000,
+                            anderson_depth=5)
+    assert_allclose(out.x, exact, rtol=0, atol=1e-10 * np.abs(exact).max())
+    assert out.sweeps < plain.sweeps / 2, f"Anderson {out.sweeps}, plain {plain.sweeps} sweeps"
+
+
+def positive_part_problem(n: int = 30, seed: int = 1):
+    """G(x) = max(0, B x + c) with ‖B‖ > 1: Picard diverges; x* solves x = max(0, Bx + c).
+
+    B = −1.5 I + small symmetric coupling, c > 0 except a few entries: the solution has an
+    active set (entries at 0) that sweeps cannot find; semismooth Newton with the generalised
+    Jacobian ``I − D B`` (D the indicator of ``B x + c > 0``) finds it.
+    """
+    rng = np.random.default_rng(seed)
+    coupling = 0.05 * rng.standard_normal((n, n))
+    bmat = -1.5 * np.eye(n) + (coupling + coupling.T) / 2
+    c = rng.uniform(0.5, 1.0, n)
+    c[:5] = -1.0  # these stay at zero in the solution
+    applications = []
+
+    def evaluate(x):
+        z = bmat @ x + c
+        gx = np.maximum(z, 0.0)
+        return Evaluation(gx, relative(gx, x), z > 0)
+
+    def jacobian(x, ev):
+        d = ev.data.astype(float)
+
+        def matvec(v):
+            applications.append(1)
+            return v - d * (bmat @ v)
+
+        return LinearOperator((n, n), matvec=matvec, dtype=float)
+
+    return evaluate, jacobian, bmat, c, applications
+
+
+def test_semismooth_newton_takes_over_when_sweeps_stall():
+    evaluate, jacobian, bmat, c, applications = positive_part_problem()
+    x0 = np.zeros(c.size)
+    with pytest.raises(FixedPointError) as err:
+        solve_fixed_point(evaluate, x0, below_tol, max_iterations=60)
+    assert err.value.residual > 1e-3, "plain sweeps alone do not solve it"
+    out = solve_fixed_point(evaluate, x0, below_tol, max_iterations=60, jacobian=jacobian)
+    assert out.newton_steps > 0 and applications, "Newton was used"
+    x = out.x
+    assert_allclose(x, np.maximum(bmat @ x + c, 0.0), rtol=0, atol=1e-12)
+    assert (x[:5] == 0.0).all() and (x[5:] > 0.0).all(), "the active set is found"
+
+
+def test_anderson_stall_hands_over_to_newton():
+    evaluate, jacobian, bmat, c, _ = positive_part_problem(seed=2)
+    settings = NewtonSettings(stall_sweeps=3)
+    out = solve_fixed_point(evaluate, np.zeros(c.size), below_tol, max_iterations=100,
+                            anderson_depth=5, jacobian=jacobian, settings=settings)
+    assert_allclose(out.x, np.maximum(bmat @ out.x + c, 0.0), rtol=0, atol=1e-12)
+
+
+def test_line_search_halves_an_overshooting_newton_step():
+    """G(x) = x/2 + 1 (x* = 2) with a Jacobian 4 times too small: the full step overshoots.
+
+    From x = 1 (after the one sweep before Newton takes over) the Newton direction is 4; the
+    trial x = 5 and then x = 3 do not lower the residual 0.5, the second halving lands on 2.
+    """
+    trials = []
+
+    def evaluate(x):
+        trials.append(float(x[0]))
+        gx = 0.5 * x + 1.0
+        return Evaluation(gx, float(abs(gx[0] - x[0])), None)
+
+    def jacobian(x, ev):
+        return LinearOperator((1, 1), matvec=lambda v: 0.125 * v, dtype=float)
+
+    settings = NewtonSettings(progress_ratio=0.0)  # no sweep counts as progress: Newton
+    out = solve_fixed_point(evaluate, np.array([0.0]), lambda x, ev: ev.residual < 1e-12,
+                            max_iterations=10, jacobian=jacobian, settings=settings)
+    assert trials == [0.0, 1.0, 5.0, 3.0, 2.0]
+    assert out.x[0] == 2.0 and out.newton_steps == 1 and out.sweeps == 1
+
+
+def test_the_iteration_limit_raises_with_the_last_residual():
+    evaluate, exact, _ = linear_problem(radius=0.99)
+    with pytest.raises(FixedPointError, match="after 10 iterations") as err:
+        solve_fixed_point(evaluate, np.zeros_like(exact), below_tol, max_iterations=10)
+    assert err.value.iterations == 10 and 0 < err.value.residual < 1
