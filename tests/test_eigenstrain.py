@@ -144,6 +144,7 @@ def layer_stress(half, component, t=2):
     return stress[n // 2, n // 2], u[n // 2, n // 2]
 
 
+@pytest.mark.slow  # about 0.65-0.9 GB peak: above the default suite's 0.5 GB budget
 def test_layer_limit_biaxial():
     """ε11 = ε22 = e in a layer: σ11 = σ22 = −E e/(1−ν) inside, 0 below, σ33 = 0.
 
@@ -160,6 +161,7 @@ def test_layer_limit_biaxial():
     assert_allclose(s2[:, 2] / biaxial, 0.0, atol=2e-3, err_msg="σ33")
 
 
+@pytest.mark.slow  # about 0.65-0.9 GB peak: above the default suite's 0.5 GB budget
 def test_layer_limit_normal_strain_lifts_surface():
     """ε33 = e in a layer of thickness t: no stress, the surface moves out by e t."""
     s, u = layer_stress(48, (2,))

@@ -100,6 +100,7 @@ def test_matches_quadrature_random_sweep():
     assert worst < 1e-9, f"worst relative deviation from quadrature {worst:.3e}"
 
 
+@pytest.mark.slow  # about 0.65-0.9 GB peak: above the default suite's 0.5 GB budget
 def test_quadrature_reference_converges():
     """The reference is converged far below the test tolerances (singular top-layer case)."""
     half = SHAPES["elongated"]
