@@ -3,8 +3,8 @@
 The code of Jacq et al., ASME J. Tribol. 124 (2002) 653, and the xarray/netCDF experiment
 pipeline around it.
 
-Notebook API: :func:`load_case`, :func:`run`, :func:`open_run`, and the eigenstrain operators
-:func:`residual_stress`, :func:`residual_displacement`.
+Notebook API: :func:`load_case`, :func:`run`, :func:`open_run`, :func:`open_campaign`, and the
+eigenstrain operators :func:`residual_stress`, :func:`residual_displacement`.
 """
 
 from __future__ import annotations
@@ -15,6 +15,7 @@ from typing import Any
 __all__ = [
     "ConfigError",
     "load_case",
+    "open_campaign",
     "open_run",
     "residual_displacement",
     "residual_stress",
@@ -28,6 +29,7 @@ _EXPORTS = {
     "ConfigError": "sacflow.errors",
     "load_case": "sacflow.config",
     "open_run": "sacflow.store",
+    "open_campaign": "sacflow.campaign.opening",
     "residual_stress": "sacflow.kernels.eigenstrain",
     "residual_displacement": "sacflow.kernels.eigenstrain",
     "run": "sacflow.runner",

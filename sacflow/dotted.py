@@ -15,10 +15,48 @@ from typing import Any
 
 from sacflow.errors import ConfigError
 
-__all__ = ["flatten", "list_index", "set_dotted", "valid_indices"]
+__all__ = ["cf_names", "flatten", "list_index", "set_dotted", "valid_indices"]
 
 #: A list index in a dotted path: ASCII digits only (no sign).
 INDEX = re.compile(r"[0-9]+")
+
+
+#: A netCDF/CF variable name: a letter, then letters, digits and underscores (CF-1.10 §2.3).
+CF_NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
+
+
+def cf_names(keys: Iterable[str], taken: Iterable[str] = ()) -> dict[str, str]:
+    """Map dotted paths to CF-valid variable names, deterministic and collision-free.
+
+    ``"load_path.0.to"`` becomes ``load_path_0_to``: every character outside letters, digits
+    and ``_`` becomes ``_``, a name not starting with a letter gets a ``p_`` prefix, and a name
+    already used (by an earlier key or in ``taken``) gets ``_2``, ``_3``... appended.
+
+    Parameters
+    ----------
+    keys : iterable of str
+        Dotted paths (or any labels), in order.
+    taken : iterable of str
+        Names already in use in the same dataset.
+
+    Returns
+    -------
+    dict
+        Key -> CF name, in the order of ``keys``.
+    """
+    used = set(taken)
+    out: dict[str, str] = {}
+    for key in keys:
+        name = re.sub(r"[^A-Za-z0-9_]", "_", key)
+        if not CF_NAME.match(name):
+            name = f"p_{name}"
+        candidate, n = name, 1
+        while candidate in used:
+            n += 1
+            candidate = f"{name}_{n}"
+        used.add(candidate)
+        out[key] = candidate
+    return out
 
 
 def flatten(value: Any, prefix: str = "") -> dict[str, Any]:

@@ -63,6 +63,7 @@ __all__ = [
     "dang_van",
     "deviator_from_vector",
     "deviatoric_vector",
+    "fatigue_indices",
     "min_enclosing_ball",
 ]
 
@@ -88,10 +89,10 @@ _JACOBI_MAX_SWEEPS = 50
 class EnduranceLimits:
     """Fully reversed endurance limits of the material, the constants of both criteria.
 
-    No default values are provided: published bending *and* torsion endurance limits for one
-    and the same heat treatment of a bearing steel (AISI 52100 / 100Cr6) could not be
-    verified from a citable source when this module was written, so they must be supplied
-    by the caller together with their source.
+    The core has no defaults: the caller supplies the limits of its material. The fatigue
+    stage's order-of-magnitude defaults for bearing steel, and their source, are
+    :data:`sacflow.compare.fatigue.DEFAULT_LIMITS` (published bending *and* torsion limits of
+    one heat of AISI 52100 / 100Cr6 could not be verified from a citable source).
 
     Parameters
     ----------
@@ -638,6 +639,12 @@ def dang_van(stress_history: ArrayLike, limits: EnduranceLimits, *,
     between them it is not interpolated, so the sampling must resolve the cycle.
     """
     flat, lead = _history(stress_history, time_axis)
+    return _dang_van_flat(flat, limits, lead)
+
+
+def _dang_van_flat(flat: NDArray[np.float64], limits: EnduranceLimits,
+                   lead: tuple[int, ...]) -> DangVanResult:
+    """Dang Van result from a contiguous (points, times, 6) history."""
     n_pts = flat.shape[0]
     index = np.empty(n_pts)
     time_index = np.empty(n_pts, dtype=np.intp)
@@ -680,9 +687,42 @@ def crossland(stress_history: ArrayLike, limits: EnduranceLimits, *,
     """
     flat, lead = _history(stress_history, time_axis)
     _, radii = min_enclosing_ball(deviatoric_vector(flat))
+    return _crossland_from(flat, radii, limits, lead)
+
+
+def _crossland_from(flat: NDArray[np.float64], radii: NDArray[np.float64],
+                    limits: EnduranceLimits, lead: tuple[int, ...]) -> CrosslandResult:
+    """Crossland result from (points, times, 6) histories and their ball radii ``√J2,a``."""
     p = (flat[..., 0] + flat[..., 1] + flat[..., 2]) / 3.0
     t_max = np.argmax(p, axis=-1)
     p_max = np.take_along_axis(p, t_max[:, None], axis=-1)[:, 0]
     index = (radii + limits.crossland_alpha * p_max) / limits.crossland_beta
     return CrosslandResult(index=index.reshape(lead), sqrt_j2a=radii.reshape(lead),
                            p_max=p_max.reshape(lead), time_index_p_max=t_max.reshape(lead))
+
+
+def fatigue_indices(stress_history: ArrayLike, limits: EnduranceLimits, *,
+                    time_axis: int) -> tuple[DangVanResult, CrosslandResult]:
+    """Dang Van and Crossland indices of each material point, one ball per point for both.
+
+    The same as ``(dang_van(...), crossland(...))`` (bit-identical), at the cost of one
+    minimum-ball computation per point instead of two.
+
+    Parameters
+    ----------
+    stress_history : array_like (..., 6)
+        Stress components (11 22 33 12 13 23, tensor shears, Pa) over time along
+        ``time_axis``; every other leading axis indexes material points.
+    limits : EnduranceLimits
+        ``f₋₁`` and ``t₋₁``.
+    time_axis : int
+        The time axis of ``stress_history`` (not the last one).
+
+    Returns
+    -------
+    (DangVanResult, CrosslandResult)
+        Arrays over the material-point axes (in their order, time axis removed).
+    """
+    flat, lead = _history(stress_history, time_axis)
+    dv = _dang_van_flat(flat, limits, lead)
+    return dv, _crossland_from(flat, dv.radius.reshape(-1), limits, lead)

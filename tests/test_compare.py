@@ -474,10 +474,12 @@ def campaign_runs(tmp_path: Path, case: Case) -> list[Path]:
 def test_campaign_summary_parameters_from_attrs_and_manifest(tmp_path, nano_case):
     paths = campaign_runs(tmp_path, nano_case)
     result = campaign_summary(paths)
-    assert result.attrs["parameters"] == "load_path.0.to", "the one swept key"
+    assert result.attrs["parameters"] == "load_path_0_to", "the one swept key, CF-named"
+    assert result.attrs["parameter_paths"] == "load_path.0.to"
+    assert result["load_path_0_to"].attrs["parameter_path"] == "load_path.0.to"
     assert list(result.case.values) == ["sweep-0", "sweep-1", "sweep-2"]
     loads = np.array([0.10, 0.15, 0.19])
-    assert_allclose(result["load_path.0.to"], loads)
+    assert_allclose(result["load_path_0_to"], loads)
     assert_allclose(result.max_plastic_strain, loads * 0.01, rtol=1e-12)
     assert_allclose(result.max_plastic_strain_depth, 1.5e-6)
     assert_allclose(result.max_plastic_strain_x1, 0.0, atol=0)
@@ -515,7 +517,7 @@ def test_campaign_summary_parameters_from_attrs_and_manifest(tmp_path, nano_case
     assert list(from_manifest["label"].values) == ["L0", "L1", "L2"]
     assert_allclose(from_manifest.wall_time, [1.0, 2.0, 3.0], err_msg="run attrs come first")
     keys = campaign_summary(paths, parameters=["body.E", "load_path.0.to"])
-    assert_allclose(keys["body.E"], 210e9)
+    assert_allclose(keys["body_E"], 210e9)
 
 
 # --------------------------------------------------------------------------- 9. case_vs_reference

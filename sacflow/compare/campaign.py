@@ -22,16 +22,30 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from sacflow.compare.core import CompareError, RunLike, build, case_name, load_run
-from sacflow.dotted import flatten
+from sacflow.compare.core import RESULTS, CompareError, RunLike, build, case_name, load_run
+from sacflow.dotted import cf_names, flatten
 from sacflow.store import open_run
 
-__all__ = ["campaign_summary", "flatten"]
+__all__ = [
+    "RESULT_NAMES",
+    "campaign_summary",
+    "fill_wall_times",
+    "flatten",
+    "run_results",
+    "summary_dataset",
+]
 
 Parameters = str | Path | Mapping[str, Any] | Sequence[str] | None
 _IGNORED = {"name", "description"}
 _WALL_TIME_ATTRS = ("wall_time", "wall_time_s", "elapsed")
 _PARAMETER_KEYS = ("parameters", "params", "overrides")
+#: The scalar results of one run (:func:`run_results`), in order.
+RESULT_NAMES = (
+    "max_plastic_strain", "max_plastic_strain_x1", "max_plastic_strain_x2",
+    "max_plastic_strain_depth", "residual_stress_11_min", "residual_stress_11_max",
+    "dent_depth", "peak_pressure", "contact_iterations_total", "plasticity_iterations_total",
+    "iterations_total", "steps", "wall_time",
+)
 
 
 def _open(source: RunLike) -> xr.Dataset:
@@ -59,7 +73,7 @@ def _last_stored(ds: xr.Dataset, name: str) -> xr.DataArray | None:
     return None
 
 
-def _results(ds: xr.Dataset) -> dict[str, float]:
+def run_results(ds: xr.Dataset) -> dict[str, float]:
     """Scalar results of one run; NaN where the run lacks the output."""
     out: dict[str, float] = {}
     eps = _last_stored(ds, "equivalent_plastic_strain")
@@ -192,13 +206,13 @@ def campaign_summary(
             else None
         )
         keys, values = _swept(cases, matched, dotted)
-        rows = [_results(ds) for ds in datasets]
+        rows = [run_results(ds) for ds in datasets]
     finally:
         for ds, source in zip(datasets, runs, strict=True):
             if not isinstance(source, xr.Dataset):
                 ds.close()
     if matched is not None:
-        _fill_wall_times(rows, matched)
+        fill_wall_times(rows, matched)
     names = [case_name(ds) for ds in datasets]
     ids = [str(ds.attrs.get("case_id", "")) for ds in datasets]
     labels = (
@@ -206,19 +220,60 @@ def campaign_summary(
         if len(set(names)) == len(names)
         else [f"{n}-{i}" for n, i in zip(names, ids, strict=True)]
     )
-    coords: dict[str, Any] = {"case": labels, "case_id": ("case", ids)}
-    coords.update({k: ("case", _coordinate(v)) for k, v in values.items()})
-    data = {k: ("case", np.array([row[k] for row in rows])) for k in rows[0]}
-    return build(
+    return summary_dataset(
+        labels, rows, {k: values[k] for k in keys}, {"case_id": ids},
+        attrs={"stage": "campaign-summary", "case": f"campaign of {len(rows)} runs"},
+    )
+
+
+def summary_dataset(
+    cases: Sequence[str],
+    rows: Sequence[Mapping[str, float]],
+    parameters: Mapping[str, Sequence[Any]],
+    labels: Mapping[str, Sequence[str]],
+    attrs: Mapping[str, Any],
+) -> xr.Dataset:
+    """Assemble per-case scalar results along ``case``, swept parameters as CF-named coordinates.
+
+    Parameters
+    ----------
+    cases : sequence of str
+        Case labels (the ``case`` coordinate).
+    rows : sequence of mapping
+        One mapping of result name -> value per case (the keys of :func:`run_results`).
+    parameters : mapping
+        Dotted parameter path -> its value in each case. Each becomes a coordinate named by
+        :func:`sacflow.dotted.cf_names` (``load_path.0.to`` -> ``load_path_0_to``) with the
+        dotted path in its ``parameter_path`` attribute.
+    labels : mapping
+        Further string coordinates along ``case`` (``case_id``, ``status``...).
+    attrs : mapping
+        Global attributes; ``parameters`` (the coordinate names, in order) and
+        ``parameter_paths`` (the dotted paths) are added.
+
+    Returns
+    -------
+    xarray.Dataset
+        Every name CF-valid; every variable with ``units`` and ``long_name``.
+    """
+    keys = list(parameters)
+    results = list(rows[0]) if rows else list(RESULT_NAMES)
+    names = cf_names(keys, taken=["case", *labels, *results])
+    coords: dict[str, Any] = {"case": list(cases)}
+    coords.update({k: ("case", np.asarray(list(v), dtype=str)) for k, v in labels.items()})
+    coords.update({names[k]: ("case", _coordinate(list(parameters[k]))) for k in keys})
+    data = {k: ("case", np.array([row[k] for row in rows], dtype=float)) for k in results}
+    ds = build(
         data,
         coords=coords,
-        attrs={
-            "stage": "campaign-summary",
-            "case": f"campaign of {len(rows)} runs",
-            "parameters": " ".join(keys),
-        },
-        metadata_of={k: f"swept parameter {k}" for k in keys},
+        attrs={**attrs, "parameters": " ".join(names[k] for k in keys),
+               "parameter_paths": " ".join(keys)},
+        metadata_of={names[k]: f"swept parameter {k}" for k in keys}
+        | {k: k.replace("_", " ") for k in labels if k not in RESULTS},
     )
+    for key in keys:
+        ds[names[key]].attrs["parameter_path"] = key
+    return ds
 
 
 def _run_sources(
@@ -281,8 +336,8 @@ def _swept(
     return keys, {k: [c.get(k) for c in cases] for k in keys}
 
 
-def _fill_wall_times(rows: list[dict[str, float]], matched: list[dict[str, Any]]) -> None:
-    """Take a run's wall time from its manifest entry when the run file lacks it."""
+def fill_wall_times(rows: list[dict[str, float]], matched: list[dict[str, Any]]) -> None:
+    """Take a run's wall time from its manifest entry when the run file lacks it (in place)."""
     for row, entry in zip(rows, matched, strict=True):
         if entry.get("wall_time") is not None and not np.isfinite(row["wall_time"]):
             row["wall_time"] = float(entry["wall_time"])

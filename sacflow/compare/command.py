@@ -63,6 +63,12 @@ STAGES: dict[str, Stage] = {
         ("depth", "component", "step"),
         help="residual stress map in a plane x3 = depth (seed Fig. 21)",
     ),
+    "fatigue": Stage(
+        "fatigue:fatigue_stage",
+        "1",
+        ("bending_limit", "torsion_limit"),
+        help="Dang Van and Crossland index fields over the stored stress history",
+    ),
     "campaign-summary": Stage(
         "campaign:campaign_summary",
         "+",
@@ -129,6 +135,12 @@ def add_compare_command(commands: Any) -> None:
     )
     option.add_argument("--value-scale", type=float, help="reference values -> SI (1e6: MPa)")
     option.add_argument("--coord-scale", type=float, help="reference coordinates -> m (1e-6: µm)")
+    option.add_argument(
+        "--bending-limit", type=float, help="fatigue: fully reversed bending endurance limit [Pa]"
+    )
+    option.add_argument(
+        "--torsion-limit", type=float, help="fatigue: fully reversed torsion endurance limit [Pa]"
+    )
     option.add_argument(
         "--parameters", help="campaign: manifest JSON file, or comma-separated dotted case keys"
     )

@@ -393,6 +393,40 @@ def plot_case_vs_reference(result: xr.Dataset) -> Figure:
     return fig
 
 
+def _index_map(fig, ax, field: xr.DataArray, x: str, y: str, top: float, title: str) -> None:
+    """One Dang Van index map (µm axes, depth downwards when ``y`` is x3)."""
+    ax.grid(False)
+    mesh = ax.pcolormesh(field[x] * UM, field[y] * UM, field.transpose(y, x).values,
+                         shading="nearest", cmap="magma", vmin=0.0, vmax=top)
+    fig.colorbar(mesh, ax=ax, label="Dang Van index")
+    ax.set(xlabel=f"{x} [µm]", ylabel=f"{y} [µm]", title=title)
+    if y == "x3":
+        ax.invert_yaxis()
+
+
+def plot_fatigue(result: xr.Dataset) -> Figure:
+    """Dang Van index: plane through the maximum, sections through it and along the track."""
+    fig, axes = _figure(result, "Dang Van index", (1, 3), (15.0, 4.4))
+    dv = result["dang_van"]
+    top = float(dv.max())
+    at = {k: float(result[f"dang_van_max_{k}"]) for k in ("x1", "x2", "depth")}
+    track = float(result.attrs.get("track_x2", 0.0))
+    plane = dv.sel(x3=at["depth"], method="nearest")
+    _index_map(fig, axes[0, 0], plane, "x1", "x2", top, f"plane x3 = {at['depth'] * UM:.3g} µm")
+    _index_map(fig, axes[0, 1], dv.sel(x2=at["x2"], method="nearest"), "x1", "x3", top,
+               f"section x2 = {at['x2'] * UM:.3g} µm (through the maximum)")
+    _index_map(fig, axes[0, 2], dv.sel(x2=track, method="nearest"), "x1", "x3", top,
+               f"section x2 = {track * UM:.3g} µm (track centre)")
+    label = f"max {top:.3g} (step {int(result['dang_van_max_step'])})"
+    axes[0, 0].plot(at["x1"] * UM, at["x2"] * UM, "c*", ms=12, label=label)
+    axes[0, 1].plot(at["x1"] * UM, at["depth"] * UM, "c*", ms=12, label=label)
+    for ax in axes[0, :2]:
+        ax.legend(loc="upper right", fontsize=8)
+    _note(axes[0, 2], f"f₋₁ = {result.attrs['bending_limit'] * MPA:.4g} MPa, "
+          f"t₋₁ = {result.attrs['torsion_limit'] * MPA:.4g} MPa")
+    return fig
+
+
 #: Plot function of each stage, keyed by the ``stage`` attribute of its result.
 PLOTS: dict[str, Callable[..., Figure]] = {
     "hertz-check": plot_hertz_check,
@@ -404,6 +438,7 @@ PLOTS: dict[str, Callable[..., Figure]] = {
     "residual-map": plot_residual_map,
     "campaign-summary": plot_campaign_summary,
     "case-vs-reference": plot_case_vs_reference,
+    "fatigue": plot_fatigue,
 }
 
 
