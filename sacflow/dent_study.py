@@ -9,7 +9,7 @@ one summary Dataset along ``case`` comparing each dented case with the smooth ca
   ``crossland_ratio``: maxima over the middle of the rolled track (cuboids more than two Hertz
   radii from both ends, :data:`~sacflow.compare.fatigue.TRACK_MARGIN_RADII`), which the whole
   contact passed: near the ends the load was put on and taken off in place, a cycle that is not
-  the rolling one (on the smooth surface it gives a 7 % higher index than the middle);
+  the rolling one;
 * where the maximum sits relative to the dent: ``dang_van_max_offset`` along the rolling
   direction (positive: downstream of the dent centre, the side the contact moves towards),
   ``dang_van_max_lateral`` across it and ``dang_van_max_depth``;

@@ -28,6 +28,11 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "pipelines"))
 
 import seed_report  # noqa: E402
+from reference_data import seed_value  # noqa: E402
+
+#: Half-widths of the tolerance bands: the accuracy of the seed's printed/figure values.
+PRINT_DEPTH_TOLERANCE = 5e-9
+PEAK_RATIO_TOLERANCE = 0.03
 
 pytestmark = pytest.mark.reference
 
@@ -44,20 +49,23 @@ def run(name: str, out: Path) -> Path:
 
 def test_650mN_print_depth_is_80_nm(out):
     result = compare.indentation_profiles(run("nanoindentation-650mN", out))
-    depth = float(result["print_depth"])
-    assert 75e-9 <= depth <= 85e-9, f"print depth {depth * 1e9:.1f} nm, seed ≈ 80 nm"
+    depth, seed = float(result["print_depth"]), seed_value("print_depth_650mN")
+    assert abs(depth - seed) <= PRINT_DEPTH_TOLERANCE, (
+        f"print depth {depth * 1e9:.1f} nm, seed ≈ {seed * 1e9:.0f} nm")
 
 
 def test_dent_elastic_over_plastic_peak_pressure_is_1_10(out):
     result = compare.elastic_vs_plastic(run("dent-vertical-elastic", out),
                                         run("dent-vertical", out))
-    ratio = float(result["peak_ratio"])
-    assert 1.07 <= ratio <= 1.13, f"peak pressure ratio elastic/plastic {ratio:.3f}, seed ≈ 1.10"
+    ratio, seed = float(result["peak_ratio"]), seed_value("dent_peak_ratio_elastic_plastic")
+    assert abs(ratio - seed) <= PEAK_RATIO_TOLERANCE, (
+        f"peak pressure ratio elastic/plastic {ratio:.3f}, seed ≈ {seed:.2f}")
 
 
 def test_rolling_over_dent_makes_residual_stress_asymmetric(out):
     result = compare.vertical_vs_rolling(run("dent-vertical-rolling-grid", out),
-                                         run("dent-rolling", out), depth=75e-6)
+                                         run("dent-rolling", out),
+                                         depth=seed_value("rolling_dent_profile_depth"))
     vertical, rolling = float(result["asymmetry_vertical"]), float(result["asymmetry_rolling"])
     numbers = {k: float(v) for k, v in result.data_vars.items() if v.ndim == 0}
     assert vertical < 0.05, f"vertical profile should be symmetric: {numbers}"
