@@ -293,7 +293,9 @@ def test_measured_surface_identity_is_its_contents(surface_file, tmp_path):
     assert Case.model_validate(measured_tabular(moved)).case_id != case.case_id
 
 
-@pytest.mark.parametrize("direction", [(140.0, 4.0), (3.0, 4.0), (1.0, 1.0), (-7.0, 0.3), (1.0, 0.0)])
+@pytest.mark.parametrize(
+    "direction", [(140.0, 4.0), (3.0, 4.0), (1.0, 1.0), (-7.0, 0.3), (1.0, 0.0)]
+)
 def test_rolling_direction_reads_back_as_itself(direction):
     # (140, 4) divided by its norm once, then again, changes in the last bit: the stored
     # direction must be the normalisation's fixed point or the case_id changes on reading back.
