@@ -139,6 +139,81 @@ class DepthProfile(Model):
         return self
 
 
+#: Stress components an initial residual stress profile may not have: with σ(x3) alone, the
+#: equilibrium ∂σ_i3/∂x3 = 0 and the free surface σ_i3(0) = 0 force σ33 = σ13 = σ23 = 0.
+_NOT_INITIAL_STRESS = ("s33", "s13", "s23")
+
+
+class InitialResidualStress(Model):
+    """An initial residual stress varying with depth only (case hardening, shot peening).
+
+    ``σ11(x3)``, ``σ22(x3)`` interpolated linearly between the points, constant beyond the first
+    and last depth; every other component 0. Laterally uniform, it is in equilibrium with a free
+    surface exactly when σ33 = σ13 = σ23 = 0 (∂σ_i3/∂x3 = 0 and σ_i3 = 0 at x3 = 0); it adds to
+    the stress of the yield check at every step and to the stored ``stress`` and
+    ``residual_stress``, and displaces no surface point (no change of the contact geometry).
+    """
+
+    depth: tuple[NonNegativeFloat, ...] = Field(
+        min_length=1, description="depths x3 of the profile points [m], strictly increasing"
+    )
+    s11: tuple[FiniteFloat, ...] = Field(
+        min_length=1, description="residual stress σ11 at those depths [Pa] (compression < 0)"
+    )
+    s22: tuple[FiniteFloat, ...] = Field(
+        min_length=1, description="residual stress σ22 at those depths [Pa] (compression < 0)"
+    )
+
+    @model_validator(mode="before")
+    @classmethod
+    def _only_in_plane(cls, data: Any) -> Any:
+        if isinstance(data, dict):
+            for key in _NOT_INITIAL_STRESS:
+                if key in data:
+                    raise ValueError(
+                        f"{key} is not allowed: a stress varying with depth only is in "
+                        "equilibrium with the free surface only if σ33 = σ13 = σ23 = 0; "
+                        "give s11 and s22 only"
+                    )
+            if "s12" in data:
+                raise ValueError("s12 is not supported: give the profile in its principal "
+                                 "axes x1, x2 (s11, s22)")
+        return data
+
+    @model_validator(mode="after")
+    def _check_points(self) -> InitialResidualStress:
+        for name in ("s11", "s22"):
+            if len(getattr(self, name)) != len(self.depth):
+                raise field_error(name, "must have one value per depth")
+        if not _strictly_increasing(self.depth):
+            raise field_error("depth", "must be strictly increasing")
+        return self
+
+
+class InitialHardening(Model):
+    """An initial equivalent plastic strain varying with depth: a work-hardened layer.
+
+    It raises the yield stress through the hardening law (σ_Y(p0(x3))) without a plastic strain
+    tensor, hence without residual stress of its own; linear between the points, constant beyond
+    the first and last depth.
+    """
+
+    depth: tuple[NonNegativeFloat, ...] = Field(
+        min_length=1, description="depths x3 of the profile points [m], strictly increasing"
+    )
+    equivalent_plastic_strain: tuple[NonNegativeFloat, ...] = Field(
+        min_length=1, description="equivalent plastic strain p at those depths (plain strain)"
+    )
+
+    @model_validator(mode="after")
+    def _check_points(self) -> InitialHardening:
+        if len(self.equivalent_plastic_strain) != len(self.depth):
+            raise field_error("equivalent_plastic_strain", "must have one value per depth")
+        if not _strictly_increasing(self.depth):
+            raise field_error("depth", "must be strictly increasing")
+        return self
+
+
 class Elastic(Model):
     """No plasticity: the body stays elastic."""
 
@@ -295,6 +370,19 @@ class Body(Model):
         description="principal radii of curvature along x1, x2 [m] (inf = flat)",
     )
     hardening: HardeningLaw = Field(description="hardening law of the body, chosen by 'law'")
+    initial_residual_stress: InitialResidualStress | None = Field(
+        None, description="residual stress before any contact, σ11 and σ22 vs depth"
+    )
+    initial_hardening: InitialHardening | None = Field(
+        None, description="equivalent plastic strain before any contact vs depth"
+    )
+
+    @model_validator(mode="after")
+    def _check_initial(self) -> Body:
+        if self.initial_hardening is not None and self.hardening.law == "elastic":
+            raise field_error("initial_hardening", "an elastic body has no hardening; remove it "
+                              "or give a plastic law")
+        return self
 
 
 class Counterbody(Model):

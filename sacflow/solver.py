@@ -39,6 +39,7 @@ from sacflow.anderson import AndersonMixer
 from sacflow.contact import ContactResult, solve_contact
 from sacflow.errors import BoxTooShallowError, ConvergenceError, SacflowError
 from sacflow.geometry import curvature_gap, features_gap
+from sacflow.initial import check_initial_yield, initial_eqps, initial_stress
 from sacflow.kernels.fft import Convolution
 from sacflow.kernels.surface import rectangle_displacement, rectangle_stress
 from sacflow.layout import StepPlan, auto_depth, body_grid, plan_steps
@@ -147,7 +148,12 @@ class Simulation:
         self._build_operators()
         shape = (*self.body_shape, self.nz)
         self.plastic_strain = np.zeros((*shape, 6))
-        self.eqps = np.zeros(shape)
+        # Initial state (schema: body.initial_residual_stress, body.initial_hardening).
+        self._initial_stress = initial_stress(body.initial_residual_stress, x3)
+        self._eqps0 = initial_eqps(body.initial_hardening, x3)
+        if self.plastic and self._initial_stress is not None:
+            check_initial_yield(self.law, self._initial_stress, self._eqps0, x3)
+        self.eqps = np.broadcast_to(self._eqps0, shape).copy()
         self.residual_displacement = np.zeros(self.body_shape)
         self.residual_stress = np.zeros((*shape, 6))
         self._pressure: np.ndarray | None = None
@@ -204,6 +210,13 @@ class Simulation:
         out = self.pressure_stress_op(embedded[None])  # (6 nz, nbx, nby)
         out = out.reshape(self.nz, 6, *self.body_shape)
         return np.moveaxis(out, (0, 1), (2, 3))
+
+    def _load_stress(self, pressure: np.ndarray, sl) -> np.ndarray:
+        """Stress that does not come from this run's plastic strain: pressure + initial [Pa]."""
+        stress = self._pressure_stress(pressure, sl)
+        if self._initial_stress is not None:
+            stress += self._initial_stress
+        return stress
 
     # ------------------------------------------------------------------ geometry
     def _window_slices(self, position: tuple[float, float]) -> tuple[slice, slice]:
@@ -298,7 +311,7 @@ class Simulation:
                 scale = max(float(np.abs(u - u_old).max()), u_floor)
                 last["du"] = float(np.abs(u - last["u"]).max()) / scale
             last["u"], last["result"] = u, result
-            return self._pressure_stress(result.pressure, sl) + stress, apps
+            return self._load_stress(result.pressure, sl) + stress, apps
 
         def converged(res: float) -> bool:
             return res < opts.plasticity_tolerance and last["du"] < opts.coupling_tolerance
@@ -329,7 +342,7 @@ class Simulation:
         change = np.inf
         for _ in range(opts.coupling_max_iterations):
             result = solve(u_used)
-            sig_pr = self._pressure_stress(result.pressure, sl)
+            sig_pr = self._load_stress(result.pressure, sl)
             tol = max(inner_tol, opts.plasticity_tolerance)
 
             def sigma(x, sig_pr=sig_pr):
@@ -515,7 +528,7 @@ class Simulation:
             With a depth ``_GROWTH`` times larger (same layer thickness): the runner grows the
             box and runs the case again. The sides cannot grow (they are the contact window).
         """
-        plastic = self.eqps > 0.0
+        plastic = self.eqps > self._eqps0  # flowed in this run (the initial hardening aside)
         if plastic[..., -1].any():
             new_nz = max(self.nz + 2, math.ceil(_GROWTH * self.nz))
             raise BoxTooShallowError(step, self.nz * self.dz, self.nz, new_nz * self.dz, new_nz)
@@ -526,7 +539,10 @@ class Simulation:
             )
 
     def _volume_fields(self, result: ContactResult, sl) -> dict[str, np.ndarray]:
-        stress = self._pressure_stress(result.pressure, sl) + self.residual_stress
+        stress = self._load_stress(result.pressure, sl) + self.residual_stress
+        residual = self.residual_stress.copy()
+        if self._initial_stress is not None:
+            residual += self._initial_stress
         if self.plastic:
             yield_stress = self.law.yield_stress(self.eqps, self.coords.x3)
         else:
@@ -534,7 +550,7 @@ class Simulation:
         return {
             "plastic_strain": self.plastic_strain.copy(),
             "equivalent_plastic_strain": self.eqps.copy(),
-            "residual_stress": self.residual_stress.copy(),
+            "residual_stress": residual,
             "stress": stress,
             "von_mises": von_mises(stress),
             "yield_stress": np.asarray(yield_stress, dtype=float),
