@@ -41,7 +41,8 @@ def load_case(path: str | Path, overrides: Sequence[str] = ()) -> Case:
     Parameters
     ----------
     path : str or Path
-        Case file. A relative ``surface.path`` is resolved against its folder.
+        Case file. A relative ``surface.path`` or ``initial_state.run`` is resolved against
+        its folder.
     overrides : sequence of str
         ``dotted.key=value`` items applied in order (see :func:`apply_overrides`).
 
@@ -134,18 +135,21 @@ def _syntax_message(path: Path, text: str, kind: str, reason: str, line: int | N
 
 
 def resolve_surface_path(data: dict[str, Any], folder: Path) -> None:
-    """Make a relative ``surface.path`` of case data absolute against ``folder``, in place.
+    """Make a relative ``surface.path`` or ``initial_state.run`` absolute against ``folder``.
+
+    In place.
 
     A path that cannot be resolved is left as written: :func:`check_surface_file` reports it.
     """
-    surface = data.get("surface")
-    if isinstance(surface, dict) and isinstance(surface.get("path"), str):
-        try:
-            candidate = Path(surface["path"]).expanduser()
-            if not candidate.is_absolute():
-                surface["path"] = str((folder / candidate).resolve())
-        except (OSError, ValueError, RuntimeError):
-            pass  # left as written: the file check reports it
+    for table, key in (("surface", "path"), ("initial_state", "run")):
+        entry = data.get(table)
+        if isinstance(entry, dict) and isinstance(entry.get(key), str):
+            try:
+                candidate = Path(entry[key]).expanduser()
+                if not candidate.is_absolute():
+                    entry[key] = str((folder / candidate).resolve())
+            except (OSError, ValueError, RuntimeError):
+                pass  # left as written: the file check reports it
 
 
 def check_surface_file(case: Case, source: str) -> None:

@@ -9,12 +9,22 @@ No I/O.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from sacflow.errors import SacflowError
 from sacflow.plasticity import HardeningLaw, von_mises
 
-__all__ = ["InitialYieldError", "check_initial_yield", "initial_eqps", "initial_stress"]
+__all__ = [
+    "InitialStateError",
+    "InitialYieldError",
+    "StoredState",
+    "check_initial_yield",
+    "initial_eqps",
+    "initial_stress",
+    "map_state",
+]
 
 #: Relative slack of the initial yield check (the profile may sit on the yield surface).
 _YIELD_SLACK = 1e-12
@@ -74,3 +84,88 @@ def check_initial_yield(law: HardeningLaw, stress: np.ndarray, eqps: np.ndarray,
             "(with body.initial_hardening); a residual stress cannot exceed it: lower the "
             "profile or raise the initial hardening"
         )
+
+
+@dataclass(frozen=True)
+class StoredState:
+    """The plastic state of a stored run at one step, on its own body grid.
+
+    Attributes
+    ----------
+    x1, x2, x3 : ndarray
+        Cell centres of the source's body grid [m].
+    plastic_strain : ndarray, shape (n1, n2, n3, 6)
+        Plastic strain tensor (tensor shears).
+    eqps : ndarray, shape (n1, n2, n3)
+        Equivalent plastic strain.
+    case_id, step : str, int
+        The source run's case id and the step number taken.
+    """
+
+    x1: np.ndarray
+    x2: np.ndarray
+    x3: np.ndarray
+    plastic_strain: np.ndarray
+    eqps: np.ndarray
+    case_id: str
+    step: int
+
+
+def map_state(state: StoredState, x1: np.ndarray, x2: np.ndarray, x3: np.ndarray,
+              offset: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
+    """Return the stored plastic strain and equivalent plastic strain on another body grid.
+
+    The source's frame is shifted by ``offset``. On the same cell centres (to
+    :data:`_SAME_GRID_RTOL` of a cell) the arrays are copied; otherwise they are interpolated
+    linearly between the source's cell centres in x1, x2 and x3, and taken as zero (virgin
+    material) outside the source's box.
+
+    Raises
+    ------
+    InitialStateError
+        When a plastic cell of the source lies outside the new grid: its strain would be lost.
+    """
+    sx1, sx2 = state.x1 + offset[0], state.x2 + offset[1]
+    _check_cover(state, (sx1, sx2, state.x3), (x1, x2, x3))
+    if _same(sx1, x1) and _same(sx2, x2) and _same(state.x3, x3):
+        return state.plastic_strain.copy(), state.eqps.copy()
+    from scipy.interpolate import RegularGridInterpolator  # chained cases on another grid only
+
+    points = np.stack(np.meshgrid(x1, x2, x3, indexing="ij"), axis=-1)
+    grid = (sx1, sx2, state.x3)
+    values = np.concatenate([state.plastic_strain, state.eqps[..., None]], axis=-1)
+    mapped = RegularGridInterpolator(grid, values, bounds_error=False, fill_value=0.0)(points)
+    return mapped[..., :6], np.maximum(mapped[..., 6], 0.0)
+
+
+#: Relative tolerance (of a cell) under which two grids' centres are the same.
+_SAME_GRID_RTOL = 1e-9
+
+
+def _same(a: np.ndarray, b: np.ndarray) -> bool:
+    if a.shape != b.shape:
+        return False
+    cell = float(np.min(np.diff(b))) if b.size > 1 else max(abs(float(b[0])), 1.0)
+    return bool(np.all(np.abs(a - b) <= _SAME_GRID_RTOL * cell))
+
+
+def _check_cover(state: StoredState, source: tuple, target: tuple) -> None:
+    plastic = state.eqps > 0.0
+    if not plastic.any():
+        return
+    for axis, (s, t, name) in enumerate(zip(source, target, ("x1", "x2", "x3"), strict=True)):
+        other = tuple(i for i in range(3) if i != axis)
+        used = s[plastic.any(axis=other)]
+        half = 0.5 * (float(t[1] - t[0]) if t.size > 1 else 0.0)
+        low, high = float(t[0]) - half, float(t[-1]) + half
+        if used.min() < low - half or used.max() > high + half:
+            raise InitialStateError(
+                f"initial_state: the source's plastic zone spans {name} in "
+                f"[{used.min():.4g}, {used.max():.4g}] m but this case's body grid covers "
+                f"[{low:.4g}, {high:.4g}] m; widen the grid (grid.extent or half_width, "
+                "grid.depth) or change initial_state.offset"
+            )
+
+
+class InitialStateError(SacflowError):
+    """The stored state a case starts from cannot be mapped onto its grid."""

@@ -212,12 +212,14 @@ def _deeper(case: Case, exc: BoxTooShallowError) -> Case:
 
 
 def _default_factory() -> Callable[[Case], Simulation]:
-    """Return the solver's simulation factory (it reads a measured surface's heights)."""
+    """Return the solver's simulation factory (it reads a measured surface, a stored state)."""
+    from sacflow.initial_state_file import read_initial_state
     from sacflow.solver import Simulation as SolverSimulation  # the solver loads lazily
     from sacflow.store import load_surface
 
     def factory(case: Case) -> Simulation:
-        return SolverSimulation(case, surface=load_surface(case))
+        return SolverSimulation(case, surface=load_surface(case),
+                                initial=read_initial_state(case))
 
     return factory
 

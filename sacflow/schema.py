@@ -608,6 +608,24 @@ class Output(Model):
     )
 
 
+class InitialState(Model):
+    """Start from a state stored by another run (a dent made by an indentation, then rolled).
+
+    The plastic strain tensor and the equivalent plastic strain of the stored step are taken
+    (interpolated onto this case's body grid when the grids differ); the residual stress and the
+    residual surface displacement follow from them on this grid. The run file records the
+    source's case id and step.
+    """
+
+    run: Path = Field(description="run file of the source (relative to the case file)")
+    step: int = Field(
+        -1, description="which stored step: 0, 1, ... from the first, -1, -2, ... from the last"
+    )
+    offset: tuple[FiniteFloat, FiniteFloat] = Field(
+        (0.0, 0.0), description="shift of the source's body frame in this case's frame [m]"
+    )
+
+
 # --------------------------------------------------------------------------- case
 class Case(Model):
     """One run: bodies, surface, grid, load path, solver options, output."""
@@ -626,6 +644,9 @@ class Case(Model):
     )
     solver: SolverOptions = Field(SolverOptions(), description="tolerances and iteration limits")
     output: Output = Field(Output(), description="what the run file stores")
+    initial_state: InitialState | None = Field(
+        None, description="start from a stored run's state (table initial_state)"
+    )
 
     # -- derived quantities ------------------------------------------------------------------
     def stored_fields(self) -> tuple[str, ...]:
@@ -659,6 +680,9 @@ class Case(Model):
         if isinstance(self.surface, Measured) and (digest := _file_digest(self.surface.path)):
             # the heights are what count: the same file moved keeps the id, an edited one not
             data["surface"]["path"] = f"sha256:{digest}"
+        if self.initial_state is not None and (source := _run_case_id(self.initial_state.run)):
+            # the source's identity counts, not where its file lies
+            data["initial_state"]["run"] = f"case_id:{source}"
         return data
 
     @property
@@ -723,6 +747,16 @@ class Case(Model):
                     f"{where}.kind", f"a {seg.kind} segment needs a positive load; load first"
                 )
             current = getattr(seg, "to", current)
+        return self
+
+    @model_validator(mode="after")
+    def _check_initial_state(self) -> Case:
+        if self.initial_state is not None and self.body.initial_hardening is not None:
+            raise field_error("body.initial_hardening", "not with initial_state: the hardening "
+                              "comes from the stored run; remove one of them")
+        if self.initial_state is not None and self.body.hardening.law == "elastic":
+            raise field_error("initial_state", "an elastic body keeps no plastic state; give a "
+                              "plastic hardening law or remove initial_state")
         return self
 
     @model_validator(mode="after")
@@ -813,6 +847,17 @@ def _file_digest(path: Path) -> str | None:
         with open(path, "rb") as f:
             return hashlib.file_digest(f, "sha256").hexdigest()[:16]
     except OSError:
+        return None
+
+
+def _run_case_id(path: Path) -> str | None:
+    """Return the ``case_id`` attribute of a run file, or None when it cannot be read."""
+    try:
+        import netCDF4  # only for cases that start from a stored run
+
+        with netCDF4.Dataset(path) as nc:
+            return str(nc.getncattr("case_id"))
+    except (OSError, AttributeError, RuntimeError):
         return None
 
 

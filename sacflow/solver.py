@@ -39,7 +39,13 @@ from sacflow.anderson import AndersonMixer
 from sacflow.contact import ContactResult, solve_contact
 from sacflow.errors import BoxTooShallowError, ConvergenceError, SacflowError
 from sacflow.geometry import curvature_gap, features_gap
-from sacflow.initial import check_initial_yield, initial_eqps, initial_stress
+from sacflow.initial import (
+    StoredState,
+    check_initial_yield,
+    initial_eqps,
+    initial_stress,
+    map_state,
+)
 from sacflow.kernels.fft import Convolution
 from sacflow.kernels.surface import rectangle_displacement, rectangle_stress
 from sacflow.layout import StepPlan, auto_depth, body_grid, plan_steps
@@ -108,7 +114,8 @@ class Simulation:
         Number of increments of the load path.
     """
 
-    def __init__(self, case, surface: MeasuredSurface | None = None):
+    def __init__(self, case, surface: MeasuredSurface | None = None,
+                 initial: StoredState | None = None):
         self.case = case
         body, cb = case.body, case.counterbody
         self.law = hardening_from_schema(body.hardening)
@@ -156,8 +163,32 @@ class Simulation:
         self.eqps = np.broadcast_to(self._eqps0, shape).copy()
         self.residual_displacement = np.zeros(self.body_shape)
         self.residual_stress = np.zeros((*shape, 6))
+        self.source: StoredState | None = None
+        if case.initial_state is not None:
+            self._start_from(case.initial_state, initial)
         self._pressure: np.ndarray | None = None
         self._h_offset: float | None = None
+
+    def _start_from(self, spec, stored: StoredState | None) -> None:
+        """Take the plastic state of a stored run (``initial_state``), mapped onto this grid.
+
+        The residual stress and residual displacement are those of the mapped plastic strain on
+        this grid (one operator application), as after a resume.
+        """
+        if stored is None:
+            raise SacflowError(
+                "initial_state: the stored state is needed: build the simulation with "
+                "Simulation(case, initial=sacflow.initial_state_file.read_initial_state(case)), "
+                "or use sacflow.run"
+            )
+        c = self.coords
+        self.plastic_strain, self.eqps = map_state(stored, c.x1, c.x2, c.x3, spec.offset)
+        self._eqps0 = self.eqps.copy()
+        self.source = stored
+        if self.plastic_strain.any():
+            with single_threaded_blas():
+                self.residual_stress, self.residual_displacement = self._eigen.residual_stress(
+                    self.plastic_strain, with_displacement=True)
 
     # ------------------------------------------------------------------ operators
     def _build_operators(self) -> None:

@@ -390,7 +390,22 @@ def _global_attrs(case: Case) -> dict[str, Any]:
         "sacflow_version": version,
         "created": datetime.now(UTC).isoformat(timespec="seconds"),
         "complete": 0,
+        **_source_attrs(case),
     }
+
+
+def _source_attrs(case: Case) -> dict[str, Any]:
+    """Attributes naming the stored state a chained case starts from (none otherwise)."""
+    spec = case.initial_state
+    if spec is None:
+        return {}
+    from sacflow.initial_state_file import stored_step_number
+
+    source = case.identity()["initial_state"]["run"]
+    number = stored_step_number(Path(spec.run), spec.step)
+    return {"initial_state_run": str(spec.run),
+            "initial_state_case_id": str(source).removeprefix("case_id:"),
+            "initial_state_step": spec.step if number is None else number}
 
 
 def _state_values(state: State, names: list[str], coords: GridCoords) -> dict[str, Any]:

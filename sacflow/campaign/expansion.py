@@ -104,17 +104,24 @@ def _read_base(base: str | dict[str, Any], folder: Path, source: str) -> dict[st
     return data
 
 
+#: Swept keys naming files, resolved against the campaign file: (table, key in the table).
+_FILE_KEYS = (("surface", "path"), ("initial_state", "run"))
+
+
 def _absolute_surface_paths(block: Sweep, folder: Path) -> Sweep:
-    """Make swept measured-surface files relative to the campaign file, like the base's."""
+    """Make swept measured-surface and source-run files relative to the campaign file."""
     parameters = dict(block.parameters)
-    for key in ("surface.path", "surface"):
-        if key in parameters:
+    for table, key in _FILE_KEYS:
+        for swept in (f"{table}.{key}", table):
+            if swept not in parameters:
+                continue
             values = []
-            for value in parameters[key]:
-                data = {"surface": {"path": value} if key == "surface.path" else value}
+            for value in parameters[swept]:
+                whole = swept == table
+                data = {table: value if whole else {key: value}}
                 resolve_surface_path(data, folder)
-                values.append(data["surface"]["path"] if key == "surface.path" else data["surface"])
-            parameters[key] = tuple(values)
+                values.append(data[table] if whole else data[table][key])
+            parameters[swept] = tuple(values)
     return block.model_copy(update={"parameters": parameters})
 
 

@@ -1,0 +1,78 @@
+"""Reading the stored state a case starts from (``initial_state = { run, step, offset }``).
+
+The only module that reads a source run for a chained case; the solver receives the arrays as a
+:class:`~sacflow.initial.StoredState` (:func:`read_initial_state`), as it receives a measured
+surface. Errors name ``initial_state`` and the fix.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import netCDF4
+import numpy as np
+
+from sacflow.initial import InitialStateError, StoredState
+from sacflow.schema import Case
+
+__all__ = ["InitialStateError", "read_initial_state", "stored_step_number"]
+
+#: Variables the source run must store at the chosen step.
+NEEDED = ("plastic_strain", "equivalent_plastic_strain")
+
+
+def read_initial_state(case: Case) -> StoredState | None:
+    """Return the stored state ``case.initial_state`` names, or None when it names none.
+
+    Raises
+    ------
+    InitialStateError
+        The file is missing, not a finished run, has no such step, or does not store the plastic
+        strain and the equivalent plastic strain at that step.
+    """
+    spec = case.initial_state
+    if spec is None:
+        return None
+    path = Path(spec.run)
+    where = f"initial_state.run {path}"
+    if not path.exists():
+        raise InitialStateError(f"{where}: no such run file (a finished run is needed; an "
+                                "interrupted one must be finished first)")
+    try:
+        with netCDF4.Dataset(path) as nc:
+            nc.set_auto_mask(False)
+            return _read(nc, spec.step, where)
+    except OSError as exc:
+        raise InitialStateError(f"{where}: not a readable run file ({exc})") from None
+
+
+def _read(nc: netCDF4.Dataset, step: int, where: str) -> StoredState:
+    if "case_id" not in nc.ncattrs() or "step" not in nc.variables:
+        raise InitialStateError(f"{where}: not a sacflow run file")
+    steps = np.asarray(nc["step"][:])
+    if not -steps.size <= step < steps.size:
+        raise InitialStateError(f"initial_state.step {step}: the run stores {steps.size} steps "
+                                f"(0 to {steps.size - 1}, or -1 to -{steps.size})")
+    index = step % steps.size
+    missing = [name for name in NEEDED if name not in nc.variables]
+    arrays = {name: np.asarray(nc[name][index], dtype=float) for name in NEEDED
+              if name in nc.variables}
+    if missing or any(not np.isfinite(a).all() for a in arrays.values()):
+        raise InitialStateError(
+            f"{where}: step {int(steps[index])} has no stored plastic strain and equivalent "
+            "plastic strain; run the source with them in [output] fields, stored at that step "
+            "(output.volume_every = 1, or pick a stored step)"
+        )
+    x1, x2, x3 = (np.asarray(nc[x][:], dtype=float) for x in ("x1", "x2", "x3"))
+    return StoredState(x1, x2, x3, arrays["plastic_strain"], arrays["equivalent_plastic_strain"],
+                       case_id=str(nc.getncattr("case_id")), step=int(steps[index]))
+
+
+def stored_step_number(path: Path, step: int) -> int | None:
+    """Return the step number that index ``step`` of a run's stored steps names (None if none)."""
+    try:
+        with netCDF4.Dataset(path) as nc:
+            steps = np.asarray(nc["step"][:])
+    except (OSError, IndexError, KeyError):
+        return None
+    return int(steps[step % steps.size]) if -steps.size <= step < steps.size else None
