@@ -116,6 +116,7 @@ def case_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> Case:
     except ValidationError as exc:
         raise ConfigError(format_validation_error(exc, source)) from None
     check_surface_file(case, source)
+    check_initial_state_file(case, source)
     return case
 
 
@@ -170,6 +171,25 @@ def check_surface_file(case: Case, source: str) -> None:
     except (OSError, ValueError) as exc:
         problem = f"surface.path: cannot read the measured surface {str(surface.path)!r}: {exc}"
         raise ConfigError(report(source, [problem])) from None
+
+
+def check_initial_state_file(case: Case, source: str) -> None:
+    """Check that the stored run a chained case starts from can be read at its step.
+
+    Raises
+    ------
+    ConfigError
+        ``source: invalid case (1 problem)`` naming ``initial_state`` and the reason.
+    """
+    if case.initial_state is None:
+        return
+    from sacflow.initial import InitialStateError
+    from sacflow.initial_state_file import check_initial_state  # netCDF only when needed
+
+    try:
+        check_initial_state(case)
+    except InitialStateError as exc:
+        raise ConfigError(report(source, [str(exc)])) from None
 
 
 # --------------------------------------------------------------------------- overrides

@@ -15,10 +15,27 @@ import numpy as np
 from sacflow.initial import InitialStateError, StoredState
 from sacflow.schema import Case
 
-__all__ = ["InitialStateError", "read_initial_state", "stored_step_number"]
+__all__ = [
+    "InitialStateError",
+    "check_initial_state",
+    "read_initial_state",
+    "stored_step_number",
+]
 
 #: Variables the source run must store at the chosen step.
 NEEDED = ("plastic_strain", "equivalent_plastic_strain")
+
+
+def check_initial_state(case: Case) -> None:
+    """Check, without reading its arrays, that the run and step ``initial_state`` names exist.
+
+    Raises
+    ------
+    InitialStateError
+        As :func:`read_initial_state`, except for values not stored at the step (found when the
+        arrays are read).
+    """
+    _open(case, arrays=False)
 
 
 def read_initial_state(case: Case) -> StoredState | None:
@@ -30,6 +47,10 @@ def read_initial_state(case: Case) -> StoredState | None:
         The file is missing, not a finished run, has no such step, or does not store the plastic
         strain and the equivalent plastic strain at that step.
     """
+    return _open(case, arrays=True)
+
+
+def _open(case: Case, arrays: bool) -> StoredState | None:
     spec = case.initial_state
     if spec is None:
         return None
@@ -41,23 +62,36 @@ def read_initial_state(case: Case) -> StoredState | None:
     try:
         with netCDF4.Dataset(path) as nc:
             nc.set_auto_mask(False)
-            return _read(nc, spec.step, where)
+            if arrays:
+                return _read(nc, spec.step, where)
+            _check(nc, spec.step, where)
+            return None
     except OSError as exc:
         raise InitialStateError(f"{where}: not a readable run file ({exc})") from None
 
 
-def _read(nc: netCDF4.Dataset, step: int, where: str) -> StoredState:
+def _check(nc: netCDF4.Dataset, step: int, where: str) -> None:
+    """Check that the file is a run with that step and the variables a start needs."""
     if "case_id" not in nc.ncattrs() or "step" not in nc.variables:
         raise InitialStateError(f"{where}: not a sacflow run file")
     steps = np.asarray(nc["step"][:])
     if not -steps.size <= step < steps.size:
         raise InitialStateError(f"initial_state.step {step}: the run stores {steps.size} steps "
                                 f"(0 to {steps.size - 1}, or -1 to -{steps.size})")
-    index = step % steps.size
     missing = [name for name in NEEDED if name not in nc.variables]
-    arrays = {name: np.asarray(nc[name][index], dtype=float) for name in NEEDED
-              if name in nc.variables}
-    if missing or any(not np.isfinite(a).all() for a in arrays.values()):
+    if missing:
+        raise InitialStateError(
+            f"{where}: the run does not store {', '.join(missing)}; run the source with them in "
+            "[output] fields"
+        )
+
+
+def _read(nc: netCDF4.Dataset, step: int, where: str) -> StoredState:
+    _check(nc, step, where)
+    steps = np.asarray(nc["step"][:])
+    index = step % steps.size
+    arrays = {name: np.asarray(nc[name][index], dtype=float) for name in NEEDED}
+    if any(not np.isfinite(a).all() for a in arrays.values()):
         raise InitialStateError(
             f"{where}: step {int(steps[index])} has no stored plastic strain and equivalent "
             "plastic strain; run the source with them in [output] fields, stored at that step "

@@ -98,10 +98,17 @@ def test_mistakes_name_the_fix(runs, tmp_path):
         case = case_from_dict(_case("bad", RELOAD, initial_state=spec))
         return read_initial_state(case)
 
-    with pytest.raises(InitialStateError, match="no such run file"):
+    # checked when the case is read (sacflow validate), one line naming the fix
+    with pytest.raises(ConfigError, match="no such run file"):
         chained(run=str(tmp_path / "absent.nc"))
-    with pytest.raises(InitialStateError, match="stores 6 steps"):
+    with pytest.raises(ConfigError, match="stores 6 steps"):
         chained(run=str(runs / "first.nc"), step=6)
+    with pytest.raises(ConfigError, match="does not store plastic_strain"):
+        bare = tmp_path / "bare"
+        case = _case("bare", LOAD_UNLOAD)
+        case["output"] = {"fields": ["load", "pressure"]}
+        run_case(case_from_dict(case), bare, progress=False)
+        chained(run=str(bare / "bare.nc"))
     small = case_from_dict(_case("small", RELOAD, initial_state={"run": str(runs / "first.nc")},
                                  grid={**GRID, "depth": 3e-6, "nz": 3}))
     with pytest.raises(InitialStateError, match="plastic zone"):

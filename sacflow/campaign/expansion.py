@@ -22,7 +22,13 @@ from typing import Any, get_origin
 
 from pydantic import ValidationError
 
-from sacflow.config import apply_overrides, check_surface_file, read_file, resolve_surface_path
+from sacflow.config import (
+    apply_overrides,
+    check_initial_state_file,
+    check_surface_file,
+    read_file,
+    resolve_surface_path,
+)
 from sacflow.dotted import list_index, set_dotted, valid_indices
 from sacflow.errors import ConfigError
 from sacflow.problems import (
@@ -218,6 +224,7 @@ def _build_case(
         return [problem_line(e) for e in drop_consequential(exc.errors(include_url=False))]
     try:
         check_surface_file(case, source)
+        check_initial_state_file(case, source)
     except ConfigError as exc:
         return [line.strip() for line in str(exc).splitlines()[1:]]
     return case
