@@ -1,15 +1,16 @@
 """Record the regression numbers of every shipped case at its tiny test grid.
 
-    python pipelines/record_config_numbers.py [--check]
+    python pipelines/record_config_numbers.py [--check] [--only NAME ...]
 
 Runs each ``configs/*.toml`` (except the campaign) at the tiny grid of ``tests/test_configs.py``
 (:func:`tiny`, :func:`measure`: the very code the test runs) and rewrites
 ``data/config_regression.csv``: one row per case and quantity with the value (SI), a reference
 value where one exists (closed-form Hertz, the shipped full grid or the seed paper) with its
 source, and how the row was obtained (command, commit, date, grid). ``--check`` prints the
-relative change against the table without writing it. Run this after a deliberate physics
-change and review the table's diff; the test (``pytest tests/test_configs.py``) reads the table
-and allows ±2 %.
+relative change against the table without writing it; ``--only NAME`` (repeatable) runs and
+rewrites the rows of those configs only (a new config), keeping every other row as it is. Run
+this after a deliberate physics change and review the table's diff; the test
+(``pytest tests/test_configs.py``) reads the table and allows ±2 %.
 """
 
 from __future__ import annotations
@@ -47,12 +48,15 @@ def commit() -> str:
     return sha + ("+uncommitted-changes" if git("status", "--porcelain", "--", "sacflow") else "")
 
 
-def rows() -> list[dict[str, str]]:
+def rows(only: set[str] | None = None) -> list[dict[str, str]]:
+    """The table's rows for every shipped config, or for the configs named in ``only``."""
     how = (f"python pipelines/record_config_numbers.py; commit {commit()}; "
            f"{datetime.date.today().isoformat()}; current code at the tiny grid")
     out = []
     with tempfile.TemporaryDirectory() as tmp:
         for path in CONFIGS:
+            if only is not None and path.stem not in only:
+                continue
             case = tiny(path)
             numbers, _, _ = measure(path, Path(tmp))
             hertz = case.hertz()
@@ -77,11 +81,28 @@ def rows() -> list[dict[str, str]]:
     return out
 
 
+def merged(new: list[dict[str, str]], only: set[str]) -> list[dict[str, str]]:
+    """The stored rows with those of the configs in ``only`` replaced by ``new``, by config."""
+    with TABLE.open(encoding="utf-8") as f:
+        kept = [row for row in csv.DictReader(line for line in f if not line.startswith("#"))
+                if row["config"] not in only]
+    return sorted(kept + new, key=lambda row: CONFIG_ORDER[row["config"]])
+
+
+CONFIG_ORDER = {path.stem: k for k, path in enumerate(CONFIGS)}
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--check", action="store_true", help="compare, do not write")
+    parser.add_argument("--only", action="append", metavar="NAME",
+                        help="record this config only (repeatable); other rows are kept")
     args = parser.parse_args()
-    new = rows()
+    only = None if args.only is None else set(args.only)
+    unknown = sorted((only or set()) - {path.stem for path in CONFIGS})
+    if unknown:
+        parser.error(f"no shipped config named {', '.join(unknown)} in configs/")
+    new = rows(only)
     if args.check:
         old = recorded()
         for row in new:
@@ -89,6 +110,8 @@ def main() -> None:
             change = "new" if was is None else f"{float(row['value']) / was - 1:+.3%}"
             print(f"{row['config']:32s} {row['quantity']:20s} {row['value']}  {change}")
         return
+    if only is not None:
+        new = merged(new, only)
     TABLE.parent.mkdir(exist_ok=True)
     with TABLE.open("w", encoding="utf-8", newline="") as f:
         f.write("# Regression numbers of the shipped cases at their tiny test grid "
