@@ -1,0 +1,238 @@
+r"""Closed-form fields of a tangential (shear) load on the surface of an elastic half-space.
+
+Conventions are those of :mod:`sacflow.kernels.surface`: SI units, x3 the depth (positive into
+the body), tension positive, (..., 6) arrays in the order (11, 22, 33, 12, 13, 23). A shear
+traction q1 > 0 acts on the body's surface along +x1: with the outward normal −e3 the surface
+traction is t_i = −σ_i3, so σ13 = −q1 at the surface under the load.
+
+Method
+------
+Cerruti's solution for a unit tangential point force along +x1 at the origin (Johnson, *Contact
+Mechanics*, CUP 1985, §2.2 and eq. 3.75 in Cartesian form), with ρ = |x| and G the shear modulus:
+
+.. math::
+
+    u_1 &= \frac{1}{4\pi G}\Big[\frac{1}{\rho} + \frac{x_1^2}{\rho^3}
+          + (1-2\nu)\Big(\frac{1}{\rho + x_3} - \frac{x_1^2}{\rho(\rho + x_3)^2}\Big)\Big], \\
+    u_2 &= \frac{1}{4\pi G}\Big[\frac{x_1 x_2}{\rho^3}
+          - (1-2\nu)\frac{x_1 x_2}{\rho(\rho + x_3)^2}\Big], \qquad
+    u_3 = \frac{1}{4\pi G}\Big[\frac{x_1 x_3}{\rho^3}
+          + (1-2\nu)\frac{x_1}{\rho(\rho + x_3)}\Big].
+
+With A = 1/ρ, B = ln(ρ + x3), C = x3 B − ρ (C,3 = B, B,3 = A; A, B, C harmonic, ∇²ρ = 2A)
+and D = ρ + (1 − 2ν) C these are u1 = k(2A − D,11), u2 = −k D,12,
+u3 = k(−x3 A,1 + (1 − 2ν) B,1), k = 1/(4πG). Their divergence is 2k(1 − 2ν) A,1, and Hooke's
+law gives (derived here; ``tests/test_shear_kernels.py`` checks them against finite differences
+of the displacements above, equilibrium, the free surface and the force balance):
+
+.. math::
+
+    2\pi\sigma_{11} &= 2(1+\nu) A_{,1} - D_{,111}, \qquad
+    2\pi\sigma_{22} = 2\nu A_{,1} - D_{,122}, \qquad
+    2\pi\sigma_{33} = -x_3 A_{,13}, \\
+    2\pi\sigma_{12} &= A_{,2} - D_{,112}, \qquad
+    2\pi\sigma_{13} = A_{,3} - x_3 A_{,11}, \qquad
+    2\pi\sigma_{23} = -x_3 A_{,12}.
+
+For a uniform traction on the rectangle |ξ1| <= h1, |ξ2| <= h2 every potential is replaced by its
+integral over the rectangle, and each derivative is a corner sum (the corner sum and the sign
+convention of :mod:`sacflow.kernels.surface`) of a function F(X, Y) with ∂²F/∂X∂Y equal to the
+point kernel (X = x1 − ξ1, Y = x2 − ξ2, z = x3, ρ = (X² + Y² + z²)^½; terms depending on X or Y
+alone cancel in the sum and are dropped):
+
+==========  ==================================================================================
+kernel      corner function F(X, Y)
+==========  ==================================================================================
+A,1         asinh(Y / (X² + z²)^½)                  (= ln(Y + ρ) up to a function of X)
+A,2         asinh(X / (Y² + z²)^½)
+A,3         −atan(XY / (zρ))                        (φ1,3 of the normal load)
+A,11        −XY / ((X² + z²) ρ)
+A,12        1/ρ
+A,13        −zY / ((X² + z²) ρ)
+D,111       2ν asinh(Y / (X² + z²)^½) − X²Y / ((X² + z²) ρ) + (1 − 2ν) Y / (ρ + z)
+D,122       Y/ρ − (1 − 2ν) Y / (ρ + z)
+D,112       X/ρ − (1 − 2ν) X / (ρ + z)
+==========  ==================================================================================
+
+D,111 follows from ∫ D,11 dY with ρ,11 = 2A − ρ,22 − ρ,33 and C,11 = −C,22 − A. The asinh forms
+avoid the cancellation of ln(Y + ρ) for Y ≪ 0. A traction along x2 is the same field with the
+axes exchanged (:func:`traction_stress`). Published closed forms of this problem (e.g. Lee, Gu &
+Jo 2000) are not used.
+
+References
+----------
+* V. Cerruti, "Ricerche intorno all'equilibrio de' corpi elastici isotropi", Atti R. Accad.
+  Lincei, Mem. Cl. Sci. Fis. Mat. Nat. 13 (1882) 81–123.
+* K. L. Johnson, *Contact Mechanics*, Cambridge University Press, 1985, §2.2, §3.2, §3.6.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from sacflow.kernels.surface import _CORNERS, _as_float, _check_depth, _safe_div
+
+__all__ = ["cerruti_stress", "rectangle_shear_stress", "traction_stress"]
+
+#: Component order after exchanging x1 and x2: (11, 22, 33, 12, 13, 23) -> (22, 11, 33, 12, 23,
+#: 13).
+_SWAP_AXES = (1, 0, 2, 3, 5, 4)
+
+
+def cerruti_stress(x1: ArrayLike, x2: ArrayLike, x3: ArrayLike, nu: float) -> NDArray[np.float64]:
+    r"""Stresses of a unit tangential point force along +x1 at the origin (Cerruti).
+
+    The point form of the module docstring's stresses, with ρ = |x|, z = x3:
+    A,1 = −x1/ρ³, A,3 = −z/ρ³, A,11 = 3x1²/ρ⁵ − 1/ρ³, A,12 = 3x1x2/ρ⁵, A,13 = 3x1z/ρ⁵, and the
+    third derivatives of ρ and C = z ln(ρ + z) − ρ.
+
+    Parameters
+    ----------
+    x1, x2, x3 : array_like
+        Field point relative to the load point [m]; x3 >= 0, not all zero.
+    nu : float
+        Poisson's ratio.
+
+    Returns
+    -------
+    ndarray, shape (..., 6)
+        Stress per unit force [1/m²] (multiply by Q [N]), order (11, 22, 33, 12, 13, 23).
+    """
+    x, y, z = _as_float(x1, x2, x3)
+    _check_depth(z)
+    shape = np.broadcast_shapes(x.shape, y.shape, z.shape)
+    r = np.sqrt(x * x + y * y + z * z)
+    r3 = r**3
+    r5 = r3 * r * r
+    rz = r + z
+    k = 1.0 - 2.0 * nu
+    c = 1.0 / (2.0 * np.pi)
+    a1, a2, a3 = -x / r3, -y / r3, -z / r3
+    a11 = 3.0 * x * x / r5 - 1.0 / r3
+    a12 = 3.0 * x * y / r5
+    a13 = 3.0 * x * z / r5
+    g = 1.0 / (r * rz * rz)  # ρ⁻¹ (ρ + z)⁻²
+    h = (3.0 * r + z) / (r3 * rz**3)
+    d111 = (-3.0 * x / r3 + 3.0 * x**3 / r5) + k * (3.0 * x * g - x**3 * h)
+    d122 = (-x / r3 + 3.0 * x * y * y / r5) + k * (x * g - x * y * y * h)
+    d112 = (-y / r3 + 3.0 * x * x * y / r5) + k * (y * g - x * x * y * h)
+    out = np.empty((*shape, 6))
+    out[..., 0] = c * (2.0 * (1.0 + nu) * a1 - d111)
+    out[..., 1] = c * (2.0 * nu * a1 - d122)
+    out[..., 2] = -c * z * a13
+    out[..., 3] = c * (a2 - d112)
+    out[..., 4] = c * (a3 - z * a11)
+    out[..., 5] = -c * z * a12
+    return out
+
+
+def _asinh_ratio(num: NDArray[np.float64], other: NDArray[np.float64],
+                 z: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Return asinh(num / (other² + z²)^½), with the limit ±(large) handled as 0 where undefined.
+
+    Where other = z = 0 the function of ``num`` alone that replaces it cancels in the corner
+    sum (the field point is then on an edge line of the rectangle at the surface): 0 is used.
+    """
+    base = np.sqrt(other * other + z * z)
+    return np.where(base == 0.0, 0.0, np.arcsinh(_safe_div(num, base)))
+
+
+def rectangle_shear_stress(
+    x1: ArrayLike,
+    x2: ArrayLike,
+    x3: ArrayLike,
+    half1: ArrayLike,
+    half2: ArrayLike,
+    nu: float,
+) -> NDArray[np.float64]:
+    r"""Stresses in a half-space per unit uniform shear traction along +x1 on a rectangle.
+
+    Closed form of the superposition of Cerruti's point-force stresses over |ξ1| <= half1,
+    |ξ2| <= half2 (corner functions in the module docstring).
+
+    Parameters
+    ----------
+    x1, x2 : array_like
+        Lateral coordinates of the field points relative to the rectangle centre [m].
+    x3 : array_like
+        Depth of the field points [m], >= 0. At x3 = 0 the surface limit is returned (σ13 = −1
+        inside the rectangle, 0 outside); values exactly on the edges at x3 = 0 are singular.
+    half1, half2 : array_like
+        Half-widths of the rectangle [m] (> 0). All inputs broadcast.
+    nu : float
+        Poisson's ratio.
+
+    Returns
+    -------
+    ndarray, shape (..., 6)
+        σ11, σ22, σ33, σ12, σ13, σ23 per unit traction (dimensionless; multiply by q1 [Pa]).
+
+    Raises
+    ------
+    ValueError
+        If any x3 < 0.
+    """
+    x1, x2, z, h1, h2 = _as_float(x1, x2, x3, half1, half2)
+    _check_depth(z)
+    shape = np.broadcast_shapes(x1.shape, x2.shape, z.shape, h1.shape, h2.shape)
+    k = 1.0 - 2.0 * nu
+    names = ("a1", "a2", "a3", "a11", "a12", "a13", "d111", "d122", "d112")
+    d = {name: np.zeros(shape) for name in names}
+    with np.errstate(divide="ignore", invalid="ignore"):
+        for s1, s2, w in _CORNERS:
+            X = x1 + s1 * h1
+            Y = x2 + s2 * h2
+            XX = X * X
+            rho = np.sqrt(XX + Y * Y + z * z)
+            ax = XX + z * z
+            ln_y = _asinh_ratio(Y, X, z)
+            d["a1"] += w * ln_y
+            d["a2"] += w * _asinh_ratio(X, Y, z)
+            d["a3"] += w * -np.arctan2(X * Y, z * rho)
+            d["a11"] += w * -_safe_div(X * Y, ax * rho)
+            d["a12"] += w * _safe_div(np.ones_like(rho), rho)
+            d["a13"] += w * -_safe_div(z * Y, ax * rho)
+            y_rz = _safe_div(Y, rho + z)
+            d["d111"] += w * (2.0 * nu * ln_y - _safe_div(XX * Y, ax * rho) + k * y_rz)
+            d["d122"] += w * (_safe_div(Y, rho) - k * y_rz)
+            d["d112"] += w * (_safe_div(X, rho) - k * _safe_div(X, rho + z))
+    c = 1.0 / (2.0 * np.pi)
+    out = np.empty((*shape, 6))
+    out[..., 0] = c * (2.0 * (1.0 + nu) * d["a1"] - d["d111"])
+    out[..., 1] = c * (2.0 * nu * d["a1"] - d["d122"])
+    out[..., 2] = -c * z * d["a13"]
+    out[..., 3] = c * (d["a2"] - d["d112"])
+    out[..., 4] = c * (d["a3"] - z * d["a11"])
+    out[..., 5] = -c * z * d["a12"]
+    return out
+
+
+def traction_stress(
+    x1: ArrayLike,
+    x2: ArrayLike,
+    x3: ArrayLike,
+    half1: ArrayLike,
+    half2: ArrayLike,
+    nu: float,
+    traction: tuple[float, float],
+) -> NDArray[np.float64]:
+    """Stresses per unit pressure of a shear traction (t1, t2) · p on a rectangle.
+
+    ``traction = (t1, t2)``: the shear traction per unit pressure along x1 and x2 (μ d for full
+    sliding along the unit direction d). The x2 part is :func:`rectangle_shear_stress` with the
+    axes exchanged (field point, half-widths and tensor components).
+
+    Returns
+    -------
+    ndarray, shape (..., 6)
+        Stress per unit pressure, order (11, 22, 33, 12, 13, 23).
+    """
+    t1, t2 = traction
+    out = np.zeros(())
+    if t1 != 0.0:
+        out = t1 * rectangle_shear_stress(x1, x2, x3, half1, half2, nu)
+    if t2 != 0.0:
+        swapped = rectangle_shear_stress(x2, x1, x3, half2, half1, nu)[..., _SWAP_AXES]
+        out = out + t2 * swapped
+    return out
