@@ -33,6 +33,7 @@ __all__ = [
     "Dented",
     "DepthProfile",
     "Elastic",
+    "Friction",
     "Grid",
     "HardeningLaw",
     "Hold",
@@ -50,7 +51,9 @@ __all__ = [
     "Tabular",
     "Unload",
     "NOT_IN_IDENTITY",
+    "OPTIONAL_TABLES",
     "PLASTIC_FIELDS",
+    "FRICTION_FIELDS",
     "case_json_schema",
     "identity_differences",
     "field_error",
@@ -72,6 +75,10 @@ FIELD_ERROR = "sacflow_field"
 NOT_IN_IDENTITY: tuple[str, ...] = (
     "name", "description", "solver.fft_threads", "output.compression",
 )
+
+#: Optional top-level tables added after runs were stored: left out of the identity when absent,
+#: so the case_id of a case without them is the one it had before they existed.
+OPTIONAL_TABLES: tuple[str, ...] = ("friction",)
 
 PositiveFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 NonNegativeFloat = Annotated[float, Field(ge=0, allow_inf_nan=False)]
@@ -511,6 +518,32 @@ class Hold(Model):
 _NORMALISE_PASSES = 4
 
 
+def unit_vector(value: tuple[float, float]) -> tuple[float, float]:
+    """Return the unit vector of ``value``, a fixed point of the normalisation.
+
+    Dividing by the norm once can change the last bit of a vector that is then divided again
+    (about one direction in five): a case read back from its JSON would then have another
+    ``case_id``. Normalising until nothing changes (one or two more passes) makes the stored
+    direction read back as itself.
+
+    Raises
+    ------
+    ValueError
+        For a zero or non-finite vector.
+    """
+    norm = math.hypot(*value)
+    if not (0.0 < norm < math.inf):
+        raise ValueError("must be a non-zero vector (d1, d2)")
+    unit = (value[0] / norm, value[1] / norm)
+    for _ in range(_NORMALISE_PASSES):
+        norm = math.hypot(*unit)
+        again = (unit[0] / norm, unit[1] / norm)
+        if again == unit:
+            break
+        unit = again
+    return unit
+
+
 class Roll(Model):
     """Move the load over the body at constant load."""
 
@@ -524,27 +557,41 @@ class Roll(Model):
     @field_validator("direction")
     @classmethod
     def _normalise(cls, value: tuple[float, float]) -> tuple[float, float]:
-        """Return the unit vector, a fixed point of the normalisation.
-
-        Dividing by the norm once can change the last bit of a vector that is then divided
-        again (about one direction in five): a case read back from its JSON would then have
-        another ``case_id``. Normalising until nothing changes (one or two more passes) makes
-        the stored direction read back as itself.
-        """
-        norm = math.hypot(*value)
-        if not (0.0 < norm < math.inf):
-            raise ValueError("must be a non-zero vector (d1, d2)")
-        unit = (value[0] / norm, value[1] / norm)
-        for _ in range(_NORMALISE_PASSES):
-            norm = math.hypot(*unit)
-            again = (unit[0] / norm, unit[1] / norm)
-            if again == unit:
-                break
-            unit = again
-        return unit
+        return unit_vector(value)
 
 
 Segment = Annotated[Load | Unload | Hold | Roll, Field(discriminator="kind")]
+
+
+# --------------------------------------------------------------------------- surface traction
+class Friction(Model):
+    """Shear traction q = μ p on the contact, along one direction (full sliding).
+
+    The traction acts on the surface of body 1 (the half-space) along ``direction``: where the
+    counter-body slides over body 1 with velocity v (relative to body 1), friction drags body
+    1's surface along v, so ``direction`` = v / |v|. In rolling, μ is the traction
+    coefficient Q/P and q = μ p everywhere in the contact (the full-slip limit of tractive
+    rolling); ``direction`` along the rolling direction means the counter-body drags body 1's
+    surface forward (its own surface moves faster than body 1's). The normal-tangential
+    coupling is neglected: the tangential traction does not change the contact pressure,
+    exact when the pair's Dundurs constant β is 0 (elastically similar bodies, as steel on
+    steel; Johnson, Contact Mechanics, 1985, §5.1, §7.1); against a rigid counter-body
+    (|β| = (1 − 2ν)/(2(1 − ν)) = 0.29 for ν = 0.3) an approximation.
+    """
+
+    coefficient: NonNegativeFloat = Field(
+        description="friction (or traction) coefficient μ = q / p, >= 0"
+    )
+    direction: tuple[FiniteFloat, FiniteFloat] = Field(
+        (1.0, 0.0),
+        description="direction (d1, d2) of the shear traction on body 1 in the surface plane, "
+        "normalised",
+    )
+
+    @field_validator("direction")
+    @classmethod
+    def _normalise(cls, value: tuple[float, float]) -> tuple[float, float]:
+        return unit_vector(value)
 
 
 # --------------------------------------------------------------------------- options
@@ -585,6 +632,9 @@ PLASTIC_FIELDS: tuple[str, ...] = (
     "residual_stress",
     "yield_stress",
 )
+#: Fields of a case with a shear traction (``[friction]``): not stored, and refused in
+#: ``output.fields``, without one.
+FRICTION_FIELDS: tuple[str, ...] = ("shear_traction",)
 
 
 class Output(Model):
@@ -647,6 +697,9 @@ class Case(Model):
     initial_state: InitialState | None = Field(
         None, description="start from a stored run's state (table initial_state)"
     )
+    friction: Friction | None = Field(
+        None, description="shear traction q = μ p on the contact (table [friction])"
+    )
 
     # -- derived quantities ------------------------------------------------------------------
     def stored_fields(self) -> tuple[str, ...]:
@@ -654,6 +707,8 @@ class Case(Model):
         if self.output.fields is not None:
             return tuple(self.output.fields)
         every = SCALAR_FIELDS + SURFACE_FIELDS + VOLUME_FIELDS
+        if self.friction is None:
+            every = tuple(name for name in every if name not in FRICTION_FIELDS)
         if isinstance(self.body.hardening, Elastic):
             return tuple(name for name in every if name not in PLASTIC_FIELDS)
         return every
@@ -677,6 +732,9 @@ class Case(Model):
             for key in parents:
                 table = table[key]
             table.pop(leaf, None)
+        for optional in OPTIONAL_TABLES:  # absent: the id of a case written before they existed
+            if data.get(optional, ...) is None:
+                del data[optional]
         if isinstance(self.surface, Measured) and (digest := _file_digest(self.surface.path)):
             # the heights are what count: the same file moved keeps the id, an edited one not
             data["surface"]["path"] = f"sha256:{digest}"
@@ -747,6 +805,14 @@ class Case(Model):
                     f"{where}.kind", f"a {seg.kind} segment needs a positive load; load first"
                 )
             current = getattr(seg, "to", current)
+        return self
+
+    @model_validator(mode="after")
+    def _check_friction_fields(self) -> Case:
+        asked = set(self.output.fields or ()) & set(FRICTION_FIELDS)
+        if self.friction is None and asked:
+            raise field_error("output.fields", f"{', '.join(sorted(asked))} needs a [friction] "
+                              "table (a shear traction); add one or remove the field")
         return self
 
     @model_validator(mode="after")

@@ -47,6 +47,7 @@ from sacflow.initial import (
     map_state,
 )
 from sacflow.kernels.fft import Convolution
+from sacflow.kernels.shear import traction_stress
 from sacflow.kernels.surface import rectangle_displacement, rectangle_stress
 from sacflow.layout import StepPlan, auto_depth, body_grid, plan_steps
 from sacflow.nonlinear import Evaluation, FixedPointError, solve_fixed_point
@@ -133,6 +134,13 @@ class Simulation:
         )
         hertz = case.hertz()
         self.hertz = hertz
+        # Shear traction q = μ p d (schema Friction): the traction per unit pressure, or None
+        # when there is none (μ = 0 included: the run is then the frictionless one, bit for bit).
+        friction = case.friction
+        self.traction: tuple[float, float] | None = None
+        if friction is not None and friction.coefficient > 0.0:
+            self.traction = (friction.coefficient * friction.direction[0],
+                             friction.coefficient * friction.direction[1])
         self.cell = case.cell_size()
         self.steps = plan_steps(case.load_path)
         self.total_steps = len(self.steps)
@@ -205,15 +213,21 @@ class Simulation:
         self.compliance = Convolution(love, window, window, threads=self.threads)
         z = (np.arange(self.nz) + 0.5) * self.dz
 
+        traction = self.traction
+
         def stresses(d1, d2):
             # One layer at a time: the closed form's temporaries stay small (in cache).
             out = np.empty((self.nz, 6, *np.broadcast_shapes(d1.shape, d2.shape)))
             for k, depth in enumerate(z):
-                out[k] = np.moveaxis(rectangle_stress(d1 * dx1, d2 * dx2, depth, h1, h2, nu), -1, 0)
+                s = rectangle_stress(d1 * dx1, d2 * dx2, depth, h1, h2, nu)
+                if traction is not None:  # the traction μ p d rides on the pressure
+                    s += traction_stress(d1 * dx1, d2 * dx2, depth, h1, h2, nu, traction)
+                out[k] = np.moveaxis(s, -1, 0)
             return out.reshape(6 * self.nz, 1, *out.shape[2:])
 
         # Pressure (embedded in the body grid at the window's place) -> stress on the body grid:
-        # one operator serves every load position.
+        # one operator serves every load position. With a shear traction q = μ p d its kernel
+        # adds the traction's stress per unit pressure: the same one convolution.
         self.pressure_stress_op = Convolution(
             stresses, self.body_shape, self.body_shape, threads=self.threads,
             block=6,  # one depth layer (six components) per inverse transform
@@ -587,6 +601,13 @@ class Simulation:
             "yield_stress": np.asarray(yield_stress, dtype=float),
         }
 
+    def _shear_traction(self, pressure: np.ndarray) -> dict[str, np.ndarray]:
+        """``{"shear_traction": μ p d}`` (nx1, nx2, 2) [Pa] with a ``[friction]`` table, else {}."""
+        if self.case.friction is None:
+            return {}
+        t1, t2 = self.traction or (0.0, 0.0)
+        return {"shear_traction": np.stack((t1 * pressure, t2 * pressure), axis=-1)}
+
     def _state(self, step: int, plan: StepPlan, inc: Increment, volume: dict) -> State:
         shape, sl, result, geometry = self.body_shape, inc.window, inc.contact, inc.geometry
         n_contact, n_plastic = inc.contact_iterations, inc.plasticity_iterations
@@ -637,6 +658,7 @@ class Simulation:
                 "geometry": geom,
                 "residual_displacement": self.residual_displacement.copy(),
                 "surface_displacement": surface_displacement,
+                **self._shear_traction(pressure),
             },
             volume=volume,
         )

@@ -13,6 +13,7 @@ import numpy as np
 
 __all__ = [
     "COMPONENTS",
+    "TRACTION_COMPONENTS",
     "RESTART_FIELDS",
     "GridCoords",
     "MeasuredSurface",
@@ -24,6 +25,9 @@ __all__ = [
 
 #: Tensor component order of every (..., 6) array (seed appendix 1 order).
 COMPONENTS: tuple[str, ...] = ("11", "22", "33", "12", "13", "23")
+
+#: Components of the surface shear traction (``shear_traction``): along x1 and along x2.
+TRACTION_COMPONENTS: tuple[str, ...] = ("1", "2")
 
 #: Per-step scalars, in the order the store writes them.
 SCALAR_FIELDS: tuple[str, ...] = (
@@ -44,9 +48,10 @@ SCALAR_FIELDS: tuple[str, ...] = (
     "coupling_residual",
     "segment",
 )
-#: Surface fields, arrays of shape (nx1, nx2).
+#: Surface fields, arrays of shape (nx1, nx2), or (nx1, nx2, 2) for the shear traction.
 SURFACE_FIELDS: tuple[str, ...] = (
     "pressure",
+    "shear_traction",
     "gap",
     "geometry",
     "residual_displacement",

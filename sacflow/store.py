@@ -57,7 +57,14 @@ import numpy as np
 
 from sacflow.errors import SacflowError
 from sacflow.schema import Case, identity_differences
-from sacflow.state import COMPONENTS, RESTART_FIELDS, GridCoords, MeasuredSurface, State
+from sacflow.state import (
+    COMPONENTS,
+    RESTART_FIELDS,
+    TRACTION_COMPONENTS,
+    GridCoords,
+    MeasuredSurface,
+    State,
+)
 from sacflow.surface_file import load_surface, read_measured_surface
 
 if TYPE_CHECKING:  # xarray is imported where runs are read: writers (campaign workers) skip it
@@ -81,6 +88,7 @@ __all__ = [
 
 SCALAR = ("step",)
 SURFACE = ("step", "x1", "x2")
+SURFACE_VECTOR = ("step", "x1", "x2", "direction")
 VOLUME = ("step", "x1", "x2", "x3")
 TENSOR = ("step", "x1", "x2", "x3", "component")
 
@@ -123,6 +131,9 @@ VARIABLES: dict[str, Variable] = {
     "segment": Variable(SCALAR, "1", "index of the load path segment", "i4"),
     # surface fields
     "pressure": Variable(SURFACE, "Pa", "contact pressure"),
+    "shear_traction": Variable(
+        SURFACE_VECTOR, "Pa", "shear traction on the surface of body 1 (components along x1, x2)"
+    ),
     "gap": Variable(SURFACE, "m", "gap between the surfaces"),
     "geometry": Variable(SURFACE, "m", "initial gap including surface features"),
     "residual_displacement": Variable(
@@ -144,6 +155,8 @@ COORDINATES: dict[str, Variable] = {
     "x2": Variable(("x2",), "m", "surface cell centre along x2 (body frame)"),
     "x3": Variable(("x3",), "m", "depth of the cuboid centre, positive into the body"),
     "component": Variable(("component",), "1", "tensor component", "str"),
+    "direction": Variable(("direction",), "1", "surface direction of a traction component",
+                          "str"),
 }
 _BOOL_ATTRS = {
     "dtype": "bool",
@@ -413,7 +426,7 @@ def _state_values(state: State, names: list[str], coords: GridCoords) -> dict[st
     sizes = _sizes(coords)
     values: dict[str, Any] = {k: v for k, v in state.scalars().items() if k in names}
     for group, arrays, dims in (
-        ("surface", state.surface, (SURFACE,)),
+        ("surface", state.surface, (SURFACE, SURFACE_VECTOR)),
         ("volume", state.volume, (VOLUME, TENSOR)),
     ):
         for name, array in arrays.items():
@@ -466,7 +479,8 @@ def _write_through() -> Iterator[None]:
 
 def _sizes(coords: GridCoords) -> dict[str, int]:
     """Length of every fixed dimension."""
-    return dict(zip(("x1", "x2", "x3"), coords.shape, strict=True), component=len(COMPONENTS))
+    return dict(zip(("x1", "x2", "x3"), coords.shape, strict=True), component=len(COMPONENTS),
+                direction=len(TRACTION_COMPONENTS))
 
 
 #: A zlib level as netCDF4 takes it.
@@ -491,10 +505,13 @@ def _create(
     nc.set_auto_mask(False)
     nc.setncatts(dict(attrs))
     sizes = _sizes(coords)
+    used = {dim for name in names for dim in VARIABLES[name].dims} | {"x1", "x2", "x3",
+                                                                      "component"}
     nc.createDimension("step", None)
     for dim, size in sizes.items():
-        nc.createDimension(dim, size)
-    _add_coordinates(nc, coords)
+        if dim in used:
+            nc.createDimension(dim, size)
+    _add_coordinates(nc, coords, used)
     for name in names:
         spec = VARIABLES[name]
         var = nc.createVariable(
@@ -512,14 +529,22 @@ def _create(
     return nc
 
 
-def _add_coordinates(nc: netCDF4.Dataset, coords: GridCoords) -> None:
+def _add_coordinates(nc: netCDF4.Dataset, coords: GridCoords, used: set[str]) -> None:
+    """Write the coordinate variables of the dimensions in ``used`` (always x1, x2, x3, component).
+
+    The traction ``direction`` appears only in files that store ``shear_traction``.
+    """
     values = {"x1": coords.x1, "x2": coords.x2, "x3": coords.x3}
     for name, spec in COORDINATES.items():
+        if name != "step" and name not in used:
+            continue
         var = nc.createVariable(name, str if spec.dtype == "str" else spec.dtype, spec.dims)
         var.setncatts({"units": spec.units, "long_name": spec.long_name})
         if name in values:
             var[:] = np.asarray(values[name], dtype=float)
     nc["component"][:] = np.array(COMPONENTS, dtype=object)
+    if "direction" in used:
+        nc["direction"][:] = np.array(TRACTION_COMPONENTS, dtype=object)
     nc["x3"].positive = "down"
 
 

@@ -61,6 +61,10 @@ def make_coords(case: Case) -> GridCoords:
     )
 
 
+#: Surface fields with two components (x1, x2) per point.
+VECTORS = {"shear_traction"}
+
+
 def make_state(step: int, coords: GridCoords, volume: bool = True) -> State:
     """A reproducible fake state: random fields seeded by ``step``."""
     rng = np.random.default_rng(step)
@@ -77,7 +81,10 @@ def make_state(step: int, coords: GridCoords, volume: bool = True) -> State:
         contact_iterations=int(rng.integers(1, 100)),
         plasticity_iterations=int(rng.integers(0, 100)),
         converged=True,
-        surface={name: rng.standard_normal(shape[:2]) for name in SURFACE_FIELDS},
+        surface={
+            name: rng.standard_normal(shape[:2] + ((2,) if name in VECTORS else ()))
+            for name in SURFACE_FIELDS
+        },
         volume={
             name: rng.standard_normal(shape + ((6,) if name in TENSORS else ()))
             for name in VOLUME_FIELDS
@@ -128,7 +135,8 @@ def test_table_covers_every_state_field():
     for name, var in VARIABLES.items():
         assert var.units and var.long_name, name
         if name in SURFACE_FIELDS:
-            assert var.dims == ("step", "x1", "x2"), name
+            extra = ("direction",) if name in VECTORS else ()
+            assert var.dims == ("step", "x1", "x2", *extra), name
         if name in VOLUME_FIELDS:
             assert var.dims[:4] == ("step", "x1", "x2", "x3"), name
 
@@ -141,7 +149,10 @@ def test_round_trip(tmp_path, case, coords):
     assert is_complete(path, case.case_id) and completed_steps(path, case.case_id) == 3
 
     ds = open_run(path)
-    assert dict(ds.sizes) == {"step": 3, "x1": 16, "x2": 16, "x3": 3, "component": 6}
+    # every variable is written (the writer's default): the traction's direction too
+    assert dict(ds.sizes) == {"step": 3, "x1": 16, "x2": 16, "x3": 3, "component": 6,
+                              "direction": 2}
+    assert list(ds.direction.values) == ["1", "2"]
     for index, state in enumerate(states):
         assert_step_matches(ds, index, state)
     assert ds.converged.dtype == bool

@@ -1,0 +1,68 @@
+"""Where a sliding Hertz contact yields first, against the friction coefficient.
+
+    python pipelines/friction_report.py [--cells 128] [--layers 64] [--mu 0 0.25 0.3 0.35 0.5]
+
+Runs ``configs/sliding-hertz.toml`` (elastic steel ball on an elastic steel flat, Hertz
+pressure with a shear traction q = μ p along +x1) once per μ on a window of ±1.25 a with
+``--cells`` cells per side and ``--layers`` cuboid layers down to 1 a, and prints, per μ, the
+largest von Mises stress over p0 of the cell centres, where it sits (x1/a: + is the leading
+side, towards which the traction pulls the surface; depth/a, the first layer being at
+0.5/layers), and the first-yield load p0/k = √3 p0/σ_vM,max (k the yield stress in shear, von
+Mises), and the largest von Mises stress of the first layer (the surface as the grid sees it)
+and its x1/a. One JSON line per μ. (The surface itself is not a cell centre: the tensile stress at
+the trailing edge is checked against its closed form in ``tests/test_friction.py``.)
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from sacflow.config import load_case
+from sacflow.solver import Simulation
+
+CASE = Path(__file__).resolve().parents[1] / "configs" / "sliding-hertz.toml"
+#: Half-width of the window and depth of the box, in contact radii.
+HALF_WIDTH, DEPTH = 1.25, 1.0
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--cells", type=int, default=128)
+    parser.add_argument("--layers", type=int, default=64)
+    parser.add_argument("--mu", type=float, nargs="+", default=[0.0, 0.25, 0.3, 0.35, 0.5])
+    args = parser.parse_args(argv)
+    for mu in args.mu:
+        print(json.dumps(report(mu, args.cells, args.layers)))
+    return 0
+
+
+def report(mu: float, cells: int, layers: int) -> dict[str, float]:
+    """The numbers of the module docstring for one friction coefficient."""
+    a = load_case(CASE).hertz().a
+    case = load_case(CASE, [f"friction.coefficient={mu}", f"grid.nx={cells}",
+                            f"grid.ny={cells}", f"grid.nz={layers}",
+                            f"grid.half_width={HALF_WIDTH}", f"grid.depth={DEPTH * a!r}"])
+    sim = Simulation(case)
+    state = list(sim.run())[-1]
+    p0 = sim.hertz.p0
+    vm = state.volume["von_mises"] / p0
+    i, j, k = np.unravel_index(int(vm.argmax()), vm.shape)
+    c = sim.coords
+    vm_max = float(vm.max())
+    top = vm[..., 0]  # the first layer, 0.5/layers deep: the surface as the grid sees it
+    ti, tj = np.unravel_index(int(top.argmax()), top.shape)
+    return {"mu": mu, "cells": cells, "layers": layers, "von_mises_max_over_p0": vm_max,
+            "x1_over_a": float(c.x1[i] / a), "x2_over_a": float(c.x2[j] / a),
+            "depth_over_a": float(c.x3[k] / a), "first_yield_p0_over_k": math.sqrt(3) / vm_max,
+            "first_layer_max_over_p0": float(top.max()), "first_layer_x1_over_a":
+            float(c.x1[ti] / a), "first_layer_depth_over_a": float(c.x3[0] / a)}
+
+
+if __name__ == "__main__":
+    sys.exit(main())
