@@ -34,6 +34,7 @@ __all__ = [
     "DepthProfile",
     "Elastic",
     "Friction",
+    "KinematicHardening",
     "Grid",
     "HardeningLaw",
     "Hold",
@@ -76,9 +77,9 @@ NOT_IN_IDENTITY: tuple[str, ...] = (
     "name", "description", "solver.fft_threads", "output.compression",
 )
 
-#: Optional top-level tables added after runs were stored: left out of the identity when absent,
-#: so the case_id of a case without them is the one it had before they existed.
-OPTIONAL_TABLES: tuple[str, ...] = ("friction",)
+#: Optional tables (dotted paths) added after runs were stored: left out of the identity when
+#: absent, so the case_id of a case without them is the one it had before they existed.
+OPTIONAL_TABLES: tuple[str, ...] = ("friction", "body.hardening.kinematic")
 
 PositiveFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 NonNegativeFloat = Annotated[float, Field(ge=0, allow_inf_nan=False)]
@@ -227,6 +228,21 @@ class Elastic(Model):
     law: Literal["elastic"] = "elastic"
 
 
+class KinematicHardening(Model):
+    """Kinematic hardening: a backstress X that moves the yield surface (Armstrong–Frederick).
+
+    dX = 2/3 C dεp − γ X dp (Armstrong & Frederick 1966; Chaboche 1989 for its combination with
+    isotropic hardening); γ = 0 is linear kinematic hardening (Prager 1956, Ziegler 1959). Under
+    uniaxial plastic flow the uniaxial backstress 3/2 X11 saturates at C/γ. The yield function
+    becomes sqrt(3/2 (s − X):(s − X)) − σ_Y(p): the isotropic law still sets the surface's size.
+    """
+
+    modulus: NonNegativeFloat = Field(description="kinematic hardening modulus C [Pa]")
+    recall: NonNegativeFloat = Field(
+        0.0, description="dynamic recall γ (dimensionless); 0: linear (Prager–Ziegler)"
+    )
+
+
 class _Plastic(Model):
     """Base of the plastic laws: the rules every law shares.
 
@@ -238,6 +254,10 @@ class _Plastic(Model):
 
     depth_profile: DepthProfile | None = Field(
         None, description="optional depth dependence of the yield stress (surface hardening)"
+    )
+    kinematic: KinematicHardening | None = Field(
+        None, description="optional kinematic hardening (backstress) combined with the law; "
+        "for now the material-point stage takes it, contact runs refuse it"
     )
 
     def initial_yield_stress(self) -> float:
@@ -732,9 +752,13 @@ class Case(Model):
             for key in parents:
                 table = table[key]
             table.pop(leaf, None)
-        for optional in OPTIONAL_TABLES:  # absent: the id of a case written before they existed
-            if data.get(optional, ...) is None:
-                del data[optional]
+        for dotted in OPTIONAL_TABLES:  # absent: the id of a case written before they existed
+            *parents, leaf = dotted.split(".")
+            table = data
+            for key in parents:
+                table = table.get(key) if isinstance(table, dict) else None
+            if isinstance(table, dict) and table.get(leaf, ...) is None:
+                del table[leaf]
         if isinstance(self.surface, Measured) and (digest := _file_digest(self.surface.path)):
             # the heights are what count: the same file moved keeps the id, an edited one not
             data["surface"]["path"] = f"sha256:{digest}"
@@ -805,6 +829,14 @@ class Case(Model):
                     f"{where}.kind", f"a {seg.kind} segment needs a positive load; load first"
                 )
             current = getattr(seg, "to", current)
+        return self
+
+    @model_validator(mode="after")
+    def _check_kinematic(self) -> Case:
+        if getattr(self.body.hardening, "kinematic", None) is not None:
+            raise field_error(
+                "body.hardening.kinematic", "kinematic hardening runs in the material-point "
+                "driver (sacflow.material_point) only, not yet in contact runs; remove it here")
         return self
 
     @model_validator(mode="after")

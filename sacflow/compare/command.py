@@ -69,6 +69,13 @@ STAGES: dict[str, Stage] = {
         ("bending_limit", "torsion_limit"),
         help="Dang Van and Crossland index fields over the stored stress history",
     ),
+    "material-point": Stage(
+        "material:material_point_stage",
+        "1",
+        ("amplitude", "cycles", "mode", "control", "mean", "increments"),
+        required=("amplitude",),
+        help="cycles of the case's material (CASE.toml): loops, εp, backstress",
+    ),
     "campaign-summary": Stage(
         "campaign:campaign_summary",
         "+",
@@ -112,7 +119,8 @@ def add_compare_command(commands: Any) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("stage", choices=list(STAGES), metavar="STAGE", help="stage name")
-    parser.add_argument("runs", nargs="+", type=Path, metavar="RUN", help="run file(s) (.nc)")
+    parser.add_argument("runs", nargs="+", type=Path, metavar="RUN",
+                        help="run file(s) (.nc); material-point: a case file (.toml)")
     parser.add_argument("--out", type=Path, default=Path("compare"), help="output folder")
     parser.add_argument("--stem", help="output file name without suffix (default: derived)")
     option = parser.add_argument_group("stage options (each stage takes some)")
@@ -141,6 +149,15 @@ def add_compare_command(commands: Any) -> None:
     option.add_argument(
         "--torsion-limit", type=float, help="fatigue: fully reversed torsion endurance limit [Pa]"
     )
+    option.add_argument("--amplitude", type=float,
+                        help="material-point: amplitude of the driven strain, or stress [Pa]")
+    option.add_argument("--mean", type=float, help="material-point: mean of the cycles")
+    option.add_argument("--cycles", type=int, help="material-point: full cycles (default 3)")
+    option.add_argument("--increments", type=int,
+                        help="material-point: increments per half-cycle (default 40)")
+    option.add_argument("--mode", choices=["uniaxial", "shear"], help="material-point: mode")
+    option.add_argument("--control", choices=["strain", "stress"],
+                        help="material-point: driven quantity")
     option.add_argument(
         "--parameters", help="campaign: manifest JSON file, or comma-separated dotted case keys"
     )

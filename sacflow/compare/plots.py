@@ -15,6 +15,7 @@ import numpy as np
 import xarray as xr
 from matplotlib.figure import Figure
 
+from sacflow.compare.material import plot_material_point
 from sacflow.reference import hertz_contact, hertz_pressure
 
 __all__ = ["PLOTS", "plot"]
@@ -439,6 +440,7 @@ PLOTS: dict[str, Callable[..., Figure]] = {
     "campaign-summary": plot_campaign_summary,
     "case-vs-reference": plot_case_vs_reference,
     "fatigue": plot_fatigue,
+    "material-point": plot_material_point,
 }
 
 

@@ -1,0 +1,91 @@
+"""Material-point stage: the cyclic response of a case's hardening law, before a contact run.
+
+``sacflow compare material-point CASE.toml --amplitude A [--cycles N --mode uniaxial|shear
+--control strain|stress --mean M --increments K]`` drives one material point of the case's body
+(E, ν, hardening law with its optional kinematic hardening) through cycles
+(:func:`sacflow.material_point.material_cycles`) and writes the history with a plot of the
+loops, the plastic strain and the backstress against the increments.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+from matplotlib.figure import Figure
+
+from sacflow.compare.core import CompareError
+from sacflow.material_point import MaterialPointError, material_cycles
+
+__all__ = ["material_point_stage", "plot_material_point"]
+
+#: Defaults of the stage's options.
+DEFAULT_CYCLES, DEFAULT_INCREMENTS = 3, 40
+
+
+def material_point_stage(case_file: Path, amplitude: float | None = None,
+                         cycles: int | None = None, mode: str | None = None,
+                         control: str | None = None, mean: float | None = None,
+                         increments: int | None = None) -> xr.Dataset:
+    """Cycle the body's material of ``case_file`` (module docstring); return the history.
+
+    Raises
+    ------
+    CompareError
+        For a run file or an elastic body, a missing amplitude, or a driver failure.
+    """
+    from pydantic import ValidationError
+
+    from sacflow.config import format_validation_error, read_file
+    from sacflow.schema import Body
+
+    if Path(case_file).suffix != ".toml":
+        raise CompareError(f"material-point takes a case file (.toml), got {case_file}")
+    if amplitude is None or amplitude <= 0:
+        raise CompareError("material-point needs --amplitude > 0 (a strain, or a stress in Pa "
+                           "with --control stress)")
+    data = read_file(Path(case_file))  # the body only: a material may carry what runs refuse
+    try:
+        body = Body.model_validate(data.get("body", {}))
+    except ValidationError as exc:
+        message = format_validation_error(exc, str(case_file)).replace("\n  ", "\n  body.")
+        raise CompareError(message) from None
+    if body.hardening.law == "elastic":
+        raise CompareError(f"{case_file}: the body is elastic; nothing to cycle")
+    cycles = DEFAULT_CYCLES if cycles is None else cycles
+    increments = DEFAULT_INCREMENTS if increments is None else increments
+    try:
+        result = material_cycles(body.hardening, body.E, body.nu, amplitude, cycles=cycles,
+                                 increments=increments, mean=mean or 0.0,
+                                 mode=mode or "uniaxial", control=control or "strain")
+    except (ValueError, MaterialPointError) as exc:
+        raise CompareError(f"material-point: {exc}") from None
+    result.attrs.update(stage="material-point", case=str(data.get("name", Path(case_file).stem)),
+                        source=str(case_file),
+                        hardening=body.hardening.model_dump_json())
+    result["max_equivalent_plastic_strain"] = xr.DataArray(
+        float(result["equivalent_plastic_strain"].max()), attrs={"units": "1"})
+    result["max_driven_stress"] = xr.DataArray(
+        float(np.abs(result["driven_stress"]).max()), attrs={"units": "Pa"})
+    return result
+
+
+def plot_material_point(result: xr.Dataset) -> Figure:
+    """Stress–strain loops of the driven component; εp and backstress over the increments."""
+    fig = Figure(figsize=(11.0, 4.4), layout="constrained")
+    left, right = fig.subplots(1, 2)
+    comp = result.attrs["driven_component"]
+    left.plot(result["driven_strain"] * 100, result["driven_stress"] * 1e-6, ".-", ms=2)
+    left.set(xlabel=f"ε{comp} [%]", ylabel=f"σ{comp} [MPa]",
+             title=f"{result.attrs['mode']}, {result.attrs['control']} control")
+    right.plot(result["increment"], result["equivalent_plastic_strain"] * 100, label="p [%]")
+    right.set(xlabel="increment", ylabel="equivalent plastic strain p [%]")
+    twin = right.twinx()
+    twin.plot(result["increment"], result["backstress"].sel(component=comp) * 1e-6, "C1",
+              label=f"X{comp}")
+    twin.set_ylabel(f"backstress X{comp} [MPa]")
+    for ax in (left, right):
+        ax.grid(True, alpha=0.3)
+    fig.suptitle(f"{result.attrs.get('case', '')}: material point")
+    return fig
