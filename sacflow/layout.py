@@ -30,11 +30,18 @@ ELASTIC_DEPTH = 2.0
 
 @dataclass(frozen=True)
 class StepPlan:
-    """One increment of the load path: segment index, load [N] and load position [m]."""
+    """One increment of the load path: segment index, load [N] and load position [m].
+
+    ``pass_index`` counts the rolling passes of the whole load path from 0 (the steps before the
+    first pass and the unloading after a pass belong to that pass, the reloading before a pass
+    to it); ``pass_end`` marks the last rolling step of a pass.
+    """
 
     segment: int
     load: float
     position: tuple[float, float]
+    pass_index: int = 0
+    pass_end: bool = False
 
 
 @dataclass(frozen=True)
@@ -60,7 +67,12 @@ def plan_steps(load_path: Iterable[Any]) -> list[StepPlan]:
     """
     steps: list[StepPlan] = []
     load, pos = 0.0, (0.0, 0.0)
+    passes = -1  # index of the last pass begun
     for index, seg in enumerate(load_path):
+        if seg.kind == "roll":
+            pos, load, passes = _roll_passes(steps, index, seg, pos, load, passes)
+            continue
+        current = max(passes, 0)
         if seg.kind in ("load", "unload"):
             if getattr(seg, "at", None) is not None:
                 if load > 0.0 and tuple(seg.at) != pos:
@@ -69,22 +81,48 @@ def plan_steps(load_path: Iterable[Any]) -> list[StepPlan]:
                         "use a roll segment to move it"
                     )
                 pos = (float(seg.at[0]), float(seg.at[1]))
-            first_load = load
-            for k in range(1, seg.increments + 1):
-                load = first_load + (seg.to - first_load) * k / seg.increments
-                steps.append(StepPlan(index, load, pos))
+            load = _ramp(steps, index, load, seg.to, seg.increments, pos, current)
         elif seg.kind == "hold":
-            steps.extend(StepPlan(index, load, pos) for _ in range(seg.increments))
-        elif seg.kind == "roll":
-            first_pos = pos
-            for k in range(1, seg.steps + 1):
-                frac = k / seg.steps
-                pos = (
-                    first_pos[0] + seg.distance * seg.direction[0] * frac,
-                    first_pos[1] + seg.distance * seg.direction[1] * frac,
-                )
-                steps.append(StepPlan(index, load, pos))
+            steps.extend(StepPlan(index, load, pos, current) for _ in range(seg.increments))
     return steps
+
+
+#: Increments of each unloading and reloading between lifted passes (``Roll.lift_increments``).
+DEFAULT_LIFT_INCREMENTS = 2
+
+
+def _ramp(steps: list[StepPlan], index: int, start: float, end: float, increments: int,
+          pos: tuple[float, float], pass_index: int) -> float:
+    """Append ``increments`` steps taking the load from ``start`` to ``end``; return ``end``."""
+    for k in range(1, increments + 1):
+        steps.append(StepPlan(index, start + (end - start) * k / increments, pos, pass_index))
+    return end
+
+
+def _roll_passes(steps: list[StepPlan], index: int, seg: Any, pos: tuple[float, float],
+                 load: float, passes: int) -> tuple[tuple[float, float], float, int]:
+    """Append the passes of a roll segment; return the position, load and last pass index.
+
+    Between passes the load is lifted (unloaded at the end of the track, moved back to its
+    start unloaded, loaded again) or, with ``between = "reverse"``, the next pass rolls back.
+    """
+    start = pos
+    lift = seg.lift_increments or DEFAULT_LIFT_INCREMENTS
+    for k in range(seg.pass_count):
+        passes += 1
+        backwards = seg.between == "reverse" and k % 2 == 1
+        if k > 0 and seg.between != "reverse":  # lift: unload, back to the start, reload
+            _ramp(steps, index, load, 0.0, lift, pos, passes - 1)
+            pos = start
+            _ramp(steps, index, 0.0, load, lift, pos, passes)
+        first = pos
+        sign = -1.0 if backwards else 1.0
+        for i in range(1, seg.steps + 1):
+            frac = sign * i / seg.steps
+            pos = (first[0] + seg.distance * seg.direction[0] * frac,
+                   first[1] + seg.distance * seg.direction[1] * frac)
+            steps.append(StepPlan(index, load, pos, passes, i == seg.steps))
+    return pos, load, passes
 
 
 def body_grid(case: Any, steps: list[StepPlan] | None = None) -> BodyGrid:

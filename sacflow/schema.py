@@ -80,6 +80,8 @@ NOT_IN_IDENTITY: tuple[str, ...] = (
 #: Optional tables (dotted paths) added after runs were stored: left out of the identity when
 #: absent, so the case_id of a case without them is the one it had before they existed.
 OPTIONAL_TABLES: tuple[str, ...] = ("friction", "body.hardening.kinematic")
+#: Load-path segment options added after runs were stored, left out of the identity when unset.
+OPTIONAL_SEGMENT_KEYS: tuple[str, ...] = ("passes", "between", "lift_increments")
 
 PositiveFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 NonNegativeFloat = Annotated[float, Field(ge=0, allow_inf_nan=False)]
@@ -96,6 +98,8 @@ CellCount = Annotated[int, Field(ge=1, le=MAX_CELLS)]
 #: Most FFT threads (``solver.fft_threads``): FFTW takes a C integer; no machine has more cores.
 MAX_THREADS = 4096
 StepCount = Annotated[int, Field(ge=1, le=MAX_STEPS)]
+#: Most passes of one roll segment (a campaign of millions of cycles is not run pass by pass).
+MAX_PASSES = 10000
 #: Radius of curvature [m]; ``inf`` stands for a flat surface.
 Radius = Annotated[float, Field(gt=0)]
 PoissonRatio = Annotated[float, Field(gt=-1, lt=0.5)]
@@ -573,11 +577,28 @@ class Roll(Model):
     direction: tuple[FiniteFloat, FiniteFloat] = Field(
         (1.0, 0.0), description="rolling direction (d1, d2) in the surface plane, normalised"
     )
+    passes: Annotated[int, Field(ge=1, le=MAX_PASSES)] | None = Field(
+        None, description="passes over the same track (default 1); each later pass starts as "
+        "'between' says"
+    )
+    between: Literal["lift", "reverse"] | None = Field(
+        None, description="between passes: 'lift' (default) unloads at the end, moves the "
+        "counter-body back to the start and loads again; 'reverse' rolls back over the track"
+    )
+    lift_increments: StepCount | None = Field(
+        None, description="increments of each unloading and reloading between lifted passes "
+        "(default 2)"
+    )
 
     @field_validator("direction")
     @classmethod
     def _normalise(cls, value: tuple[float, float]) -> tuple[float, float]:
         return unit_vector(value)
+
+    @property
+    def pass_count(self) -> int:
+        """Number of passes (``passes``, default 1)."""
+        return self.passes or 1
 
 
 Segment = Annotated[Load | Unload | Hold | Roll, Field(discriminator="kind")]
@@ -752,6 +773,10 @@ class Case(Model):
             for key in parents:
                 table = table[key]
             table.pop(leaf, None)
+        for segment in data.get("load_path", ()):  # options added later, absent when unset
+            for key in OPTIONAL_SEGMENT_KEYS:
+                if segment.get(key, ...) is None:
+                    del segment[key]
         for dotted in OPTIONAL_TABLES:  # absent: the id of a case written before they existed
             *parents, leaf = dotted.split(".")
             table = data

@@ -144,6 +144,7 @@ class Simulation:
         self.cell = case.cell_size()
         self.steps = plan_steps(case.load_path)
         self.total_steps = len(self.steps)
+        self.multi_pass = any(s.pass_index > 0 for s in self.steps)
         # Body grid: the contact window swept along the rolled track.
         grid = body_grid(case, self.steps)
         nx, ny = self.window = grid.window
@@ -560,7 +561,8 @@ class Simulation:
                     self.plastic_strain, with_displacement=True)
             self._check_box(step)
         volume = {}
-        if step % every == every - 1 or step == self.total_steps - 1:
+        pass_end = plan.pass_end and self.multi_pass  # repeated rolling: every pass's end
+        if step % every == every - 1 or step == self.total_steps - 1 or pass_end:
             volume = self._volume_fields(inc.contact, inc.window)
         return self._state(step, plan, inc, volume)
 
@@ -635,6 +637,7 @@ class Simulation:
         return State(
             step=step,
             segment=plan.segment,
+            pass_index=plan.pass_index,
             load=float(plan.load),
             approach=float(result.approach),
             load_x1=float(plan.position[0]),

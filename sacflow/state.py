@@ -47,6 +47,7 @@ SCALAR_FIELDS: tuple[str, ...] = (
     "plasticity_residual",
     "coupling_residual",
     "segment",
+    "pass",
 )
 #: Surface fields, arrays of shape (nx1, nx2), or (nx1, nx2, 2) for the shear traction.
 SURFACE_FIELDS: tuple[str, ...] = (
@@ -106,12 +107,15 @@ class State:
     Scalars follow :data:`SCALAR_FIELDS`: each loop's final residual (contact: relative gap
     error; plasticity: relative fixed-point residual of the plastic strain increment; coupling:
     relative change of the residual surface displacement) and whether it met its tolerance;
-    ``converged`` is all three. ``surface`` maps names of :data:`SURFACE_FIELDS` to (nx1, nx2)
-    arrays; ``volume`` maps names of :data:`VOLUME_FIELDS` to arrays, and is empty on steps where
-    volume output is skipped (Output.volume_every). ``restart`` maps the names of
-    :data:`RESTART_FIELDS` to the solver's state after the step and ``first_contact_offset`` is
-    the initial-gap offset of the first contact [m] (the origin of the approach): with them a run
-    goes on after this step without replaying it (empty for simulations that cannot).
+    ``converged`` is all three; ``pass_index`` (stored as ``pass``) the rolling pass the step
+    belongs to (:class:`~sacflow.layout.StepPlan`). ``surface`` maps names of
+    :data:`SURFACE_FIELDS` to (nx1, nx2) arrays; ``volume`` maps names of
+    :data:`VOLUME_FIELDS` to arrays, and is empty on steps where volume output is skipped
+    (Output.volume_every; repeated rolling stores it at the end of every pass too).
+    ``restart`` maps the names of :data:`RESTART_FIELDS` to the solver's state after the step
+    and ``first_contact_offset`` is the initial-gap offset of the first contact [m] (the origin
+    of the approach): with them a run goes on after this step without replaying it (empty for
+    simulations that cannot).
     """
 
     step: int
@@ -135,10 +139,15 @@ class State:
     volume: dict[str, np.ndarray] = field(default_factory=dict)
     restart: dict[str, np.ndarray] = field(default_factory=dict)
     first_contact_offset: float | None = None
+    pass_index: int = 0
 
     def scalars(self) -> dict[str, float | int | bool]:
         """Return the per-step scalars as a dict keyed by :data:`SCALAR_FIELDS`."""
-        return {name: getattr(self, name) for name in SCALAR_FIELDS}
+        return {name: getattr(self, _ATTRIBUTE.get(name, name)) for name in SCALAR_FIELDS}
+
+
+#: State attribute of a scalar whose name is a Python keyword.
+_ATTRIBUTE = {"pass": "pass_index"}
 
 
 @dataclass(frozen=True)

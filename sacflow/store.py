@@ -129,6 +129,7 @@ VARIABLES: dict[str, Variable] = {
     "coupling_residual": Variable(
         SCALAR, "1", "final relative change of the residual surface displacement"),
     "segment": Variable(SCALAR, "1", "index of the load path segment", "i4"),
+    "pass": Variable(SCALAR, "1", "rolling pass of the step, from 0", "i4"),
     # surface fields
     "pressure": Variable(SURFACE, "Pa", "contact pressure"),
     "shear_traction": Variable(

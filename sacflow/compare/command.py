@@ -69,6 +69,8 @@ STAGES: dict[str, Stage] = {
         ("bending_limit", "torsion_limit"),
         help="Dang Van and Crossland index fields over the stored stress history",
     ),
+    "passes": Stage("passes:pass_report", "1",
+                    help="repeated rolling: plastic flow per pass, shakedown or ratcheting"),
     "material-point": Stage(
         "material:material_point_stage",
         "1",

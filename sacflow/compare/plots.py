@@ -16,6 +16,7 @@ import xarray as xr
 from matplotlib.figure import Figure
 
 from sacflow.compare.material import plot_material_point
+from sacflow.compare.passes import plot_passes
 from sacflow.reference import hertz_contact, hertz_pressure
 
 __all__ = ["PLOTS", "plot"]
@@ -441,6 +442,7 @@ PLOTS: dict[str, Callable[..., Figure]] = {
     "case-vs-reference": plot_case_vs_reference,
     "fatigue": plot_fatigue,
     "material-point": plot_material_point,
+    "passes": plot_passes,
 }
 
 

@@ -1,0 +1,162 @@
+"""Repeated rolling: what each pass adds, and whether the body shakes down or ratchets.
+
+``sacflow compare passes RUN.nc`` on a run whose roll segment has ``passes > 1`` (the volume
+fields are stored at the end of every pass). Per pass k, from the end of pass k − 1 (the virgin
+or initial state for the first pass, which includes the first loading) to the end of pass k:
+
+* ``pass_plastic_increment_max``: the largest increment Δp of the equivalent plastic strain;
+* ``pass_plastic_increment_integral``: ∫ Δp dV over the body grid [m³]: how much plastic flow
+  the pass caused;
+* ``pass_net_plastic_strain_integral``: ∫ sqrt(2/3 Δεp:Δεp) dV [m³], Δεp the change of the
+  plastic strain *tensor* over the pass: the flow that did not reverse within it;
+* ``pass_residual_displacement``: the largest residual surface displacement on the track centre
+  at the end of the pass [m].
+
+The verdict (attribute ``verdict``, with the rule in ``verdict_rule``) compares the last pass
+with the first and the one before it (Johnson, *Contact Mechanics*, 1985, §9.3; Ponter, Hearle &
+Johnson, J. Mech. Phys. Solids 33 (1985) 339):
+
+* ``elastic``: no plastic flow in any pass;
+* ``elastic shakedown``: the last pass's flow ∫Δp is at most :data:`SHAKEDOWN_FRACTION` of the
+  first pass's;
+* ``ratcheting``: the flow no longer decays (last ≥ :data:`STEADY_RATIO` × the pass before) and
+  mostly does not reverse (net ≥ :data:`RATCHET_FRACTION` × ∫Δp): strain accumulates every pass;
+* ``plastic shakedown``: the flow no longer decays but reverses within the pass (alternating
+  plasticity, a closed cycle);
+* ``undecided``: still decaying: run more passes.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+from matplotlib.figure import Figure
+
+from sacflow.compare.core import CompareError, case_of, load_run, require
+
+__all__ = ["SHAKEDOWN_FRACTION", "pass_report", "plot_passes"]
+
+#: Last pass's plastic flow over the first's at or below which the body has shaken down.
+SHAKEDOWN_FRACTION = 1e-2
+#: Ratio of the last two passes' plastic flow above which the flow no longer decays.
+STEADY_RATIO = 0.5
+#: Share of a pass's plastic flow that must persist (not reverse) to call it ratcheting.
+RATCHET_FRACTION = 0.5
+
+
+def pass_report(run: str | Path | xr.Dataset) -> xr.Dataset:
+    """Per-pass plastic flow and the shakedown verdict of a repeated rolling run (module doc).
+
+    Raises
+    ------
+    CompareError
+        When the run has fewer than two passes, lacks the fields, or misses a pass's end.
+    """
+    from sacflow.layout import plan_steps
+
+    stage = "passes"
+    ds = load_run(run)
+    require(ds, "equivalent_plastic_strain", "plastic_strain", "residual_displacement",
+            "load_x2", stage=stage)
+    case = case_of(ds)
+    plan = plan_steps(case.load_path)
+    ends = [i for i, s in enumerate(plan) if s.pass_end]
+    if len(ends) < 2:
+        raise CompareError(f"{stage}: the run has {len(ends)} rolling pass(es); give its roll "
+                           "segment passes >= 2")
+    steps = ds["step"].values
+    missing = [e for e in ends if e not in steps or bool(
+        ds["equivalent_plastic_strain"].sel(step=e).isnull().all())]
+    if missing:
+        raise CompareError(f"{stage}: no volume fields at the end of pass(es) ending at steps "
+                           f"{missing[:5]}; the run is unfinished or older than pass storage")
+    cell = _cell_volume(ds)
+    p_prev = np.zeros(ds["equivalent_plastic_strain"].shape[1:])
+    e_prev = np.zeros(ds["plastic_strain"].shape[1:])
+    rows: dict[str, list[float]] = {k: [] for k in (
+        "max", "integral", "net", "residual")}
+    for end in ends:
+        at = ds.sel(step=end)
+        p = np.nan_to_num(at["equivalent_plastic_strain"].values)
+        e = np.nan_to_num(at["plastic_strain"].values)
+        dp, de = p - p_prev, e - e_prev
+        net = np.sqrt(2.0 / 3.0 * (np.sum(de[..., :3] ** 2, axis=-1)
+                                   + 2.0 * np.sum(de[..., 3:] ** 2, axis=-1)))
+        rows["max"].append(float(dp.max()))
+        rows["integral"].append(float(dp.sum() * cell))
+        rows["net"].append(float(net.sum() * cell))
+        track = at["residual_displacement"].sel(x2=float(at["load_x2"]), method="nearest")
+        rows["residual"].append(float(track.max()))
+        p_prev, e_prev = p, e
+    verdict = classify(rows["integral"], rows["net"])
+    n = len(ends)
+    result = xr.Dataset(
+        {
+            "pass_plastic_increment_max": ("pass", rows["max"], {
+                "units": "1", "long_name": "largest increment of p over the pass"}),
+            "pass_plastic_increment_integral": ("pass", rows["integral"], {
+                "units": "m3", "long_name": "volume integral of the increment of p"}),
+            "pass_net_plastic_strain_integral": ("pass", rows["net"], {
+                "units": "m3", "long_name": "volume integral of the equivalent net change "
+                "of the plastic strain tensor"}),
+            "pass_residual_displacement": ("pass", rows["residual"], {
+                "units": "m", "long_name": "largest residual displacement on the track "
+                "centre at the end of the pass"}),
+            "pass_end_step": ("pass", np.array(ends, dtype=np.int32), {
+                "units": "1", "long_name": "last rolling step of the pass"}),
+            "last_over_first": ((), rows["integral"][-1] / rows["integral"][0]
+                                if rows["integral"][0] > 0 else 0.0, {
+                "units": "1", "long_name": "plastic flow of the last pass over the first's"}),
+        },
+        coords={"pass": ("pass", np.arange(n, dtype=np.int32),
+                         {"units": "1", "long_name": "rolling pass, from 0"})},
+    )
+    result.attrs.update(stage=stage, case=case.name, Conventions="CF-1.10", verdict=verdict,
+                        verdict_rule=VERDICT_RULE)
+    return result
+
+
+VERDICT_RULE = (
+    f"elastic: no plastic flow; elastic shakedown: last pass's integral of dp <= "
+    f"{SHAKEDOWN_FRACTION:g} x the first's; ratcheting: last >= {STEADY_RATIO:g} x the pass "
+    f"before and net plastic strain >= {RATCHET_FRACTION:g} x its integral of dp; plastic "
+    f"shakedown: last >= {STEADY_RATIO:g} x the pass before, net below that; else undecided"
+)
+
+
+def classify(flow: list[float], net: list[float]) -> str:
+    """Return the verdict (module docstring) from the per-pass flow ∫Δp and net ∫|Δεp|."""
+    if max(flow) <= 0.0:
+        return "elastic"
+    if flow[-1] <= SHAKEDOWN_FRACTION * flow[0]:
+        return "elastic shakedown"
+    if flow[-1] >= STEADY_RATIO * flow[-2]:
+        return "ratcheting" if net[-1] >= RATCHET_FRACTION * flow[-1] else "plastic shakedown"
+    return "undecided"
+
+
+def _cell_volume(ds: xr.Dataset) -> float:
+    spacing = [float(np.diff(ds[d].values).mean()) if ds.sizes[d] > 1 else 0.0
+               for d in ("x1", "x2", "x3")]
+    return float(np.prod(spacing))
+
+
+def plot_passes(result: xr.Dataset) -> Figure:
+    """Plastic flow per pass (log scale) and the residual displacement at each pass's end."""
+    fig = Figure(figsize=(10.0, 4.2), layout="constrained")
+    left, right = fig.subplots(1, 2)
+    k = result["pass"].values + 1
+    left.semilogy(k, result["pass_plastic_increment_integral"] * 1e9, "o-", label="∫Δp dV")
+    left.semilogy(k, result["pass_net_plastic_strain_integral"] * 1e9, "s--",
+                  label="net ∫|Δεp| dV")
+    left.set(xlabel="pass", ylabel="plastic flow of the pass [mm³]",
+             title=f"verdict: {result.attrs['verdict']}")
+    left.legend()
+    right.plot(k, result["pass_residual_displacement"] * 1e9, "o-")
+    right.set(xlabel="pass", ylabel="residual displacement on the track [nm]")
+    for ax in (left, right):
+        ax.grid(True, alpha=0.3)
+    fig.suptitle(f"{result.attrs.get('case', '')}: repeated rolling")
+    return fig
