@@ -7,8 +7,9 @@ traction is t_i = −σ_i3, so σ13 = −q1 at the surface under the load.
 
 Method
 ------
-Cerruti's solution for a unit tangential point force along +x1 at the origin (Johnson, *Contact
-Mechanics*, CUP 1985, §2.2 and eq. 3.75 in Cartesian form), with ρ = |x| and G the shear modulus:
+Cerruti's solution for a unit tangential point force along +x1 at the origin (Cerruti 1882; in
+Cartesian form as in Johnson, *Contact Mechanics*, CUP 1985, ch. 3), with ρ = |x| and G the
+shear modulus:
 
 .. math::
 
@@ -22,8 +23,9 @@ Mechanics*, CUP 1985, §2.2 and eq. 3.75 in Cartesian form), with ρ = |x| and G
 With A = 1/ρ, B = ln(ρ + x3), C = x3 B − ρ (C,3 = B, B,3 = A; A, B, C harmonic, ∇²ρ = 2A)
 and D = ρ + (1 − 2ν) C these are u1 = k(2A − D,11), u2 = −k D,12,
 u3 = k(−x3 A,1 + (1 − 2ν) B,1), k = 1/(4πG). Their divergence is 2k(1 − 2ν) A,1, and Hooke's
-law gives (derived here; ``tests/test_shear_kernels.py`` checks them against finite differences
-of the displacements above, equilibrium, the free surface and the force balance):
+law gives (derived here; ``tests/test_traction_kernels.py`` checks them against Johnson's
+Cartesian stresses written out separately, equilibrium and compatibility, the free surface, and
+the force and moment balance):
 
 .. math::
 
@@ -63,7 +65,7 @@ References
 ----------
 * V. Cerruti, "Ricerche intorno all'equilibrio de' corpi elastici isotropi", Atti R. Accad.
   Lincei, Mem. Cl. Sci. Fis. Mat. Nat. 13 (1882) 81–123.
-* K. L. Johnson, *Contact Mechanics*, Cambridge University Press, 1985, §2.2, §3.2, §3.6.
+* K. L. Johnson, *Contact Mechanics*, Cambridge University Press, 1985, ch. 3.
 """
 
 from __future__ import annotations
@@ -129,13 +131,18 @@ def cerruti_stress(x1: ArrayLike, x2: ArrayLike, x3: ArrayLike, nu: float) -> ND
 
 def _asinh_ratio(num: NDArray[np.float64], other: NDArray[np.float64],
                  z: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Return asinh(num / (other² + z²)^½), with the limit ±(large) handled as 0 where undefined.
+    """Return asinh(num / (other² + z²)^½), and its finite part where other = z = 0.
 
-    Where other = z = 0 the function of ``num`` alone that replaces it cancels in the corner
-    sum (the field point is then on an edge line of the rectangle at the surface): 0 is used.
+    At the surface on a line through an edge (other = z = 0) the function diverges as
+    sign(num) (ln 2|num| − ln |other|); the divergent part cancels between the two corners on
+    that line when the field point is outside the rectangle, and the finite part
+    sign(num) ln 2|num| is what the corner sum needs (0 at num = 0).
     """
     base = np.sqrt(other * other + z * z)
-    return np.where(base == 0.0, 0.0, np.arcsinh(_safe_div(num, base)))
+    size = np.abs(num)
+    limit = np.where(size == 0.0, 0.0,
+                     np.sign(num) * np.log(2.0 * np.where(size == 0.0, 1.0, size)))
+    return np.where(base == 0.0, limit, np.arcsinh(_safe_div(num, base)))
 
 
 def rectangle_shear_stress(
