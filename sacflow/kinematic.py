@@ -49,7 +49,8 @@ import numpy as np
 
 from sacflow.plasticity import HardeningLaw, ReturnMappingError, deviator, double_contraction
 
-__all__ = ["KinematicLaw", "KinematicReturn", "kinematic_return"]
+__all__ = ["KinematicLaw", "KinematicReturn", "KinematicTangent", "kinematic_from_schema",
+           "kinematic_return"]
 
 
 @dataclass(frozen=True)
@@ -216,3 +217,62 @@ def _solve_consistency(s, x0, p0, d, law: HardeningLaw, c: float, g: float, thre
         inside = np.isfinite(xn) & (xn > lo[act]) & (xn < hi[act])
         x = np.where(inside, xn, 0.5 * (lo[act] + hi[act]))
     return result, max_iter
+
+
+#: Relative step of the central differences in :class:`KinematicTangent` (of the trial stress).
+TANGENT_STEP = 1e-6
+
+
+class KinematicTangent:
+    """Derivative of the kinematic return's Δεp with respect to the trial stress, matrix-free.
+
+    At the plastic points of a return, ``apply(dσ)`` is the central difference
+    [Δεp(σ_tr + h dσ) − Δεp(σ_tr − h dσ)] / 2h of :func:`kinematic_return` with the state
+    (p_n, X_n) fixed, h = :data:`TANGENT_STEP` · max|σ_tr| / max|dσ|; zero at elastic points.
+    Used, like :class:`sacflow.plasticity.ReturnTangent` for isotropic hardening, by the
+    solver's Newton–Krylov iteration, where the directional derivative is all it needs.
+    """
+
+    def __init__(self, trial_stress, result: KinematicReturn, eqps, backstress,
+                 law: HardeningLaw, kinematic: KinematicLaw, mu: float, depth=None):
+        plastic = result.plastic.reshape(-1)
+        self.index = np.flatnonzero(plastic)
+        self.shape = result.plastic.shape + (6,)
+        lead = result.plastic.shape
+        take = self.index
+
+        def flat(a, tail=()):
+            return np.broadcast_to(np.asarray(a, float), lead + tail).reshape(-1, *tail)[take]
+
+        self.trial = np.asarray(trial_stress, float).reshape(-1, 6)[take]
+        self.p = flat(eqps)
+        self.x = flat(backstress, (6,))
+        self.depth = None if depth is None else flat(depth)
+        self.law, self.kinematic, self.mu = law, kinematic, mu
+        self.scale = float(np.abs(self.trial).max()) if take.size else 0.0
+
+    def apply(self, dsigma: np.ndarray) -> np.ndarray:
+        """Return dΔεp (shape of the trial stress) for a stress perturbation ``dsigma``."""
+        out = np.zeros(self.shape).reshape(-1, 6)
+        if self.index.size:
+            ds = np.asarray(dsigma, float).reshape(-1, 6)[self.index]
+            size = float(np.abs(ds).max())
+            if size > 0.0:
+                h = TANGENT_STEP * self.scale / size
+                plus, minus = (kinematic_return(self.trial + sign * h * ds, self.p, self.x,
+                                                self.law, self.kinematic, self.mu, self.depth)
+                               for sign in (1.0, -1.0))
+                out[self.index] = (plus.plastic_strain_increment
+                                   - minus.plastic_strain_increment) / (2.0 * h)
+        return out.reshape(self.shape)
+
+
+def kinematic_from_schema(hardening) -> KinematicLaw | None:
+    """Return the :class:`KinematicLaw` of a schema hardening law (or dict), or None."""
+    spec = (hardening.get("kinematic") if isinstance(hardening, dict)
+            else getattr(hardening, "kinematic", None))
+    if spec is None:
+        return None
+    if isinstance(spec, dict):
+        return KinematicLaw(float(spec["modulus"]), float(spec.get("recall", 0.0)))
+    return KinematicLaw(float(spec.modulus), float(spec.recall))

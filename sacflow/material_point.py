@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from sacflow.kinematic import KinematicLaw, kinematic_return
+from sacflow.kinematic import kinematic_from_schema, kinematic_return
 from sacflow.plasticity import hardening_from_schema, radial_return
 from sacflow.state import COMPONENTS
 
@@ -97,7 +97,7 @@ def material_cycles(hardening: Any, E: float, nu: float, amplitude: float, cycle
     if mode not in MODES or control not in ("strain", "stress"):
         raise ValueError(f"mode must be one of {list(MODES)} and control 'strain' or 'stress'")
     law = hardening_from_schema(hardening)
-    kin = _kinematic(hardening)
+    kin = kinematic_from_schema(hardening)
     mu, lam = E / (2.0 * (1.0 + nu)), E * nu / ((1.0 + nu) * (1.0 - 2.0 * nu))
     driven, held = MODES[mode]
     unknown = list(held) + ([driven] if control == "stress" else [])
@@ -144,16 +144,6 @@ def material_cycles(hardening: Any, E: float, nu: float, amplitude: float, cycle
                     driven_component=COMPONENTS[driven], Conventions="CF-1.10",
                     title=f"material point, {mode} {control}-controlled cycles")
     return ds
-
-
-def _kinematic(hardening: Any) -> KinematicLaw | None:
-    spec = hardening.get("kinematic") if isinstance(hardening, dict) else getattr(
-        hardening, "kinematic", None)
-    if spec is None:
-        return None
-    if isinstance(spec, dict):
-        return KinematicLaw(float(spec["modulus"]), float(spec.get("recall", 0.0)))
-    return KinematicLaw(float(spec.modulus), float(spec.recall))
 
 
 def _solve(respond, strain: np.ndarray, unknown: list[int], wanted: np.ndarray, scale: float,

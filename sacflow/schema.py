@@ -55,6 +55,7 @@ __all__ = [
     "OPTIONAL_TABLES",
     "PLASTIC_FIELDS",
     "FRICTION_FIELDS",
+    "KINEMATIC_FIELDS",
     "case_json_schema",
     "identity_differences",
     "field_error",
@@ -260,8 +261,7 @@ class _Plastic(Model):
         None, description="optional depth dependence of the yield stress (surface hardening)"
     )
     kinematic: KinematicHardening | None = Field(
-        None, description="optional kinematic hardening (backstress) combined with the law; "
-        "for now the material-point stage takes it, contact runs refuse it"
+        None, description="optional kinematic hardening (backstress) combined with the law"
     )
 
     def initial_yield_stress(self) -> float:
@@ -676,6 +676,9 @@ PLASTIC_FIELDS: tuple[str, ...] = (
 #: Fields of a case with a shear traction (``[friction]``): not stored, and refused in
 #: ``output.fields``, without one.
 FRICTION_FIELDS: tuple[str, ...] = ("shear_traction",)
+#: Fields of a body with kinematic hardening: not stored, and refused in ``output.fields``,
+#: without it.
+KINEMATIC_FIELDS: tuple[str, ...] = ("backstress",)
 
 
 class Output(Model):
@@ -750,6 +753,8 @@ class Case(Model):
         every = SCALAR_FIELDS + SURFACE_FIELDS + VOLUME_FIELDS
         if self.friction is None:
             every = tuple(name for name in every if name not in FRICTION_FIELDS)
+        if getattr(self.body.hardening, "kinematic", None) is None:
+            every = tuple(name for name in every if name not in KINEMATIC_FIELDS)
         if isinstance(self.body.hardening, Elastic):
             return tuple(name for name in every if name not in PLASTIC_FIELDS)
         return every
@@ -857,19 +862,15 @@ class Case(Model):
         return self
 
     @model_validator(mode="after")
-    def _check_kinematic(self) -> Case:
-        if getattr(self.body.hardening, "kinematic", None) is not None:
-            raise field_error(
-                "body.hardening.kinematic", "kinematic hardening runs in the material-point "
-                "driver (sacflow.material_point) only, not yet in contact runs; remove it here")
-        return self
-
-    @model_validator(mode="after")
     def _check_friction_fields(self) -> Case:
         asked = set(self.output.fields or ()) & set(FRICTION_FIELDS)
         if self.friction is None and asked:
             raise field_error("output.fields", f"{', '.join(sorted(asked))} needs a [friction] "
                               "table (a shear traction); add one or remove the field")
+        asked = set(self.output.fields or ()) & set(KINEMATIC_FIELDS)
+        if getattr(self.body.hardening, "kinematic", None) is None and asked:
+            raise field_error("output.fields", f"{', '.join(sorted(asked))} needs kinematic "
+                              "hardening ([body.hardening.kinematic]); add it or remove the field")
         return self
 
     @model_validator(mode="after")
@@ -877,6 +878,9 @@ class Case(Model):
         if self.initial_state is not None and self.body.initial_hardening is not None:
             raise field_error("body.initial_hardening", "not with initial_state: the hardening "
                               "comes from the stored run; remove one of them")
+        if self.initial_state is not None and getattr(self.body.hardening, "kinematic", None):
+            raise field_error("initial_state", "a chained case does not carry a backstress "
+                              "over yet: remove [body.hardening.kinematic] or initial_state")
         if self.initial_state is not None and self.body.hardening.law == "elastic":
             raise field_error("initial_state", "an elastic body keeps no plastic state; give a "
                               "plastic hardening law or remove initial_state")

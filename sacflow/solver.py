@@ -49,6 +49,7 @@ from sacflow.initial import (
 from sacflow.kernels.fft import Convolution
 from sacflow.kernels.shear import traction_stress
 from sacflow.kernels.surface import rectangle_displacement, rectangle_stress
+from sacflow.kinematic import KinematicTangent, kinematic_from_schema, kinematic_return
 from sacflow.layout import StepPlan, auto_depth, body_grid, plan_steps
 from sacflow.nonlinear import Evaluation, FixedPointError, solve_fixed_point
 from sacflow.plasticity import (
@@ -121,6 +122,7 @@ class Simulation:
         body, cb = case.body, case.counterbody
         self.law = hardening_from_schema(body.hardening)
         self.plastic = not isinstance(self.law, Elastic)
+        self.kinematic = kinematic_from_schema(body.hardening) if self.plastic else None
         self.E, self.nu = float(body.E), float(body.nu)
         self.mu = self.E / (2.0 * (1.0 + self.nu))
         if cb.kind == "elastic":
@@ -170,6 +172,9 @@ class Simulation:
         if self.plastic and self._initial_stress is not None:
             check_initial_yield(self.law, self._initial_stress, self._eqps0, x3)
         self.eqps = np.broadcast_to(self._eqps0, shape).copy()
+        # backstress X (kinematic hardening only): an internal variable like εp
+        self.backstress = None if self.kinematic is None else np.zeros((*shape, 6))
+        self._last_backstress: np.ndarray | None = None
         self.residual_displacement = np.zeros(self.body_shape)
         self.residual_stress = np.zeros((*shape, 6))
         self.source: StoredState | None = None
@@ -444,7 +449,7 @@ class Simulation:
             stress, apps = sigma(x)
             applications += apps
             trial = stress + 2.0 * mu * x
-            ret = radial_return(trial, eqps, self.law, mu, depth=depth)
+            ret = self._return(trial, eqps, depth)
             gx = ret.plastic_strain_increment
             scale = max(float(np.abs(gx).max()), float(np.abs(x).max()), strain_scale)
             return Evaluation(gx, float(np.abs(gx - x).max()) / scale, (trial, ret))
@@ -452,7 +457,7 @@ class Simulation:
         def jacobian(x: np.ndarray, ev: Evaluation) -> LinearOperator:
             """``I − T (A + 2μ)``: ``T`` the return's algorithmic tangent, ``A`` residual stress."""
             trial, ret = ev.data
-            tangent = ReturnTangent(trial, ret, eqps, self.law, mu, depth)
+            tangent = self._tangent(trial, ret, eqps, depth)
 
             def matvec(v: np.ndarray) -> np.ndarray:
                 nonlocal applications
@@ -476,8 +481,23 @@ class Simulation:
                                    tolerance=opts.plasticity_tolerance,
                                    iterations=exc.iterations) from None
         ret = out.evaluation.data[1]
+        self._last_backstress = getattr(ret, "backstress", None)
         dx = out.x if accept_iterate else ret.plastic_strain_increment
         return dx, ret.eqps_increment, applications, out.evaluation.residual
+
+    def _return(self, trial: np.ndarray, eqps: np.ndarray, depth: np.ndarray):
+        """Return-map the trial stress with the body's law: isotropic, or with the backstress."""
+        if self.kinematic is None:
+            return radial_return(trial, eqps, self.law, self.mu, depth=depth)
+        return kinematic_return(trial, eqps, self.backstress, self.law, self.kinematic,
+                                self.mu, depth=depth)
+
+    def _tangent(self, trial: np.ndarray, ret, eqps: np.ndarray, depth: np.ndarray):
+        """Return the derivative of the return w.r.t. the trial stress (Newton–Krylov)."""
+        if self.kinematic is None:
+            return ReturnTangent(trial, ret, eqps, self.law, self.mu, depth)
+        return KinematicTangent(trial, ret, eqps, self.backstress, self.law, self.kinematic,
+                                self.mu, depth)
 
     # ------------------------------------------------------------------ driver
     def run(self, start: int = 0) -> Iterator[State]:
@@ -533,6 +553,13 @@ class Simulation:
             arrays[name] = array.copy()
         self.plastic_strain = arrays["plastic_strain"]
         self.eqps = arrays["equivalent_plastic_strain"]
+        if self.backstress is not None:
+            stored = restart.get("backstress")
+            if stored is None:
+                raise SacflowError("the stored steps hold no backstress, which this case's "
+                                   "kinematic hardening needs: run with --restart")
+            self.backstress = np.asarray(stored, dtype=float).reshape(
+                (*self.body_shape, self.nz, 6)).copy()
         self.residual_displacement = arrays["residual_displacement"]
         if self.eigen is not None and self.plastic_strain.any():
             with single_threaded_blas():
@@ -553,6 +580,8 @@ class Simulation:
             deps, dp = inc.update
             self.plastic_strain += deps
             self.eqps += dp
+            if self.kinematic is not None and self._last_backstress is not None:
+                self.backstress = self._last_backstress
             # residual fields of the converged plastic strain (known from the last evaluation)
             if inc.residual_fields is not None:
                 self.residual_stress, self.residual_displacement = inc.residual_fields
@@ -601,6 +630,7 @@ class Simulation:
             "stress": stress,
             "von_mises": von_mises(stress),
             "yield_stress": np.asarray(yield_stress, dtype=float),
+            **({} if self.backstress is None else {"backstress": self.backstress.copy()}),
         }
 
     def _shear_traction(self, pressure: np.ndarray) -> dict[str, np.ndarray]:
@@ -630,6 +660,7 @@ class Simulation:
             "equivalent_plastic_strain": keep(self.eqps),
             "residual_displacement": keep(self.residual_displacement),
             "pressure": pressure,
+            **({} if self.backstress is None else {"backstress": self.backstress.copy()}),
         }
         contact_ok = result.error < opts.contact_tolerance
         plastic_ok = inc.plasticity_residual < opts.plasticity_tolerance

@@ -13,6 +13,7 @@ import numpy as np
 
 __all__ = [
     "COMPONENTS",
+    "OPTIONAL_RESTART_FIELDS",
     "TRACTION_COMPONENTS",
     "RESTART_FIELDS",
     "GridCoords",
@@ -62,6 +63,7 @@ SURFACE_FIELDS: tuple[str, ...] = (
 VOLUME_FIELDS: tuple[str, ...] = (
     "plastic_strain",
     "equivalent_plastic_strain",
+    "backstress",
     "residual_stress",
     "stress",
     "von_mises",
@@ -79,6 +81,9 @@ RESTART_FIELDS: tuple[str, ...] = (
     "residual_displacement",
     "pressure",
 )
+#: Internal variables of some materials only, kept with the step when the solver has them: the
+#: backstress of kinematic hardening.
+OPTIONAL_RESTART_FIELDS: tuple[str, ...] = ("backstress",)
 
 
 @dataclass(frozen=True)

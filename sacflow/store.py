@@ -59,6 +59,7 @@ from sacflow.errors import SacflowError
 from sacflow.schema import Case, identity_differences
 from sacflow.state import (
     COMPONENTS,
+    OPTIONAL_RESTART_FIELDS,
     RESTART_FIELDS,
     TRACTION_COMPONENTS,
     GridCoords,
@@ -144,6 +145,7 @@ VARIABLES: dict[str, Variable] = {
     # volume fields
     "plastic_strain": Variable(TENSOR, "1", "plastic strain tensor"),
     "equivalent_plastic_strain": Variable(VOLUME, "1", "equivalent plastic strain"),
+    "backstress": Variable(TENSOR, "Pa", "backstress tensor of kinematic hardening"),
     "residual_stress": Variable(TENSOR, "Pa", "residual stress tensor"),
     "stress": Variable(TENSOR, "Pa", "stress tensor (contact pressure and residual)"),
     "von_mises": Variable(VOLUME, "Pa", "von Mises equivalent stress"),
@@ -785,7 +787,8 @@ def _write_restart(nc: netCDF4.Dataset, state: State, stored: Mapping[str, Any])
     offset = state.first_contact_offset
     group.first_contact_offset = math.nan if offset is None else float(offset)
     in_output, uniform = [], {}
-    for name in RESTART_FIELDS:
+    optional = [name for name in OPTIONAL_RESTART_FIELDS if name in state.restart]
+    for name in (*RESTART_FIELDS, *optional):
         array = np.asarray(state.restart[name], dtype=float)
         if name in stored and _same(stored[name], array):
             in_output.append(name)
@@ -816,7 +819,9 @@ def _read_restart(part: Path) -> tuple[dict[str, np.ndarray], float | None] | No
         part_uniform = json.loads(getattr(nc, UNIFORM_ATTR, "{}"))
         sizes = {name: len(dim) for name, dim in nc.dimensions.items()}
         arrays = {}
-        for name in RESTART_FIELDS:
+        held = set(group.variables) | set(uniform) | in_output
+        optional = [name for name in OPTIONAL_RESTART_FIELDS if name in held]
+        for name in (*RESTART_FIELDS, *optional):
             shape = tuple(sizes[d] for d in VARIABLES[name].dims[1:])
             if name in group.variables:
                 arrays[name] = np.array(group[name][...], dtype=float)

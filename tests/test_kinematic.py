@@ -7,8 +7,8 @@
   closed hysteresis loop from the first cycle;
 * the isotropic-only return unchanged: no backstress gives the solver's radial return;
 * consistency (the yield function zero after the return) for random multiaxial states;
-* the schema: kinematic hardening validates, contact runs refuse it for now, and case ids of
-  laws without it are unchanged.
+* the schema: kinematic hardening validates and adds the stored backstress; case ids of laws
+  without it are unchanged.
 """
 
 from __future__ import annotations
@@ -19,7 +19,6 @@ import numpy as np
 import pytest
 
 from sacflow.config import load_case
-from sacflow.errors import SacflowError
 from sacflow.kinematic import KinematicLaw, kinematic_return
 from sacflow.material_point import STRESS_TOL, cycle_path, material_cycles
 from sacflow.plasticity import PerfectlyPlastic, Swift, deviator, double_contraction, radial_return
@@ -163,10 +162,12 @@ def test_cycle_path():
     np.testing.assert_allclose(path, [0.5, 1.0, 0.0, -1.0, 0.0, 1.0])
 
 
-def test_kinematic_hardening_in_a_case_is_refused_for_contact_runs():
-    with pytest.raises(SacflowError, match="body.hardening.kinematic"):
-        load_case(ROOT / "configs" / "rolling-smooth.toml",
-                  ["body.hardening.kinematic.modulus=50e9"])
+def test_kinematic_hardening_in_a_case_changes_its_id_and_fields():
+    case = load_case(ROOT / "configs" / "rolling-smooth.toml",
+                     ["body.hardening.kinematic.modulus=50e9"])
+    assert case.body.hardening.kinematic.recall == 0.0
+    assert "backstress" in case.stored_fields()
+    assert case.case_id != load_case(ROOT / "configs" / "rolling-smooth.toml").case_id
 
 
 def test_laws_without_kinematic_hardening_keep_their_case_id():

@@ -39,7 +39,7 @@ from sacflow.store import (
 )
 
 CONFIG = Path(__file__).resolve().parents[1] / "configs" / "hertz-elastic.toml"
-TENSORS = {"plastic_strain", "residual_stress", "stress"}
+TENSORS = {"plastic_strain", "residual_stress", "stress", "backstress"}
 
 
 # --------------------------------------------------------------------------- helpers (shared)
