@@ -23,6 +23,7 @@ __all__ = [
     "check_initial_yield",
     "initial_eqps",
     "initial_stress",
+    "MappedState",
     "map_state",
 ]
 
@@ -100,6 +101,9 @@ class StoredState:
         Equivalent plastic strain.
     case_id, step : str, int
         The source run's case id and the step number taken.
+    backstress : ndarray, shape (n1, n2, n3, 6), optional
+        Backstress tensor of a source with kinematic hardening [Pa]; None when the source has
+        none (isotropic hardening: its backstress is zero).
     """
 
     x1: np.ndarray
@@ -109,11 +113,21 @@ class StoredState:
     eqps: np.ndarray
     case_id: str
     step: int
+    backstress: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
+class MappedState:
+    """A stored plastic state on the new body grid (see :func:`map_state`)."""
+
+    plastic_strain: np.ndarray
+    eqps: np.ndarray
+    backstress: np.ndarray | None
 
 
 def map_state(state: StoredState, x1: np.ndarray, x2: np.ndarray, x3: np.ndarray,
-              offset: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
-    """Return the stored plastic strain and equivalent plastic strain on another body grid.
+              offset: tuple[float, float]) -> MappedState:
+    """Return the stored internal variables (plastic strain, εp, backstress) on another grid.
 
     The source's frame is shifted by ``offset``. On the same cell centres (to
     :data:`_SAME_GRID_RTOL` of a cell) the arrays are copied; otherwise they are interpolated
@@ -127,15 +141,20 @@ def map_state(state: StoredState, x1: np.ndarray, x2: np.ndarray, x3: np.ndarray
     """
     sx1, sx2 = state.x1 + offset[0], state.x2 + offset[1]
     _check_cover(state, (sx1, sx2, state.x3), (x1, x2, x3))
+    parts = [state.plastic_strain, state.eqps[..., None]]
+    if state.backstress is not None:
+        parts.append(state.backstress)
     if _same(sx1, x1) and _same(sx2, x2) and _same(state.x3, x3):
-        return state.plastic_strain.copy(), state.eqps.copy()
-    from scipy.interpolate import RegularGridInterpolator  # chained cases on another grid only
+        mapped = np.concatenate(parts, axis=-1)
+    else:
+        from scipy.interpolate import RegularGridInterpolator  # chained cases on another grid
 
-    points = np.stack(np.meshgrid(x1, x2, x3, indexing="ij"), axis=-1)
-    grid = (sx1, sx2, state.x3)
-    values = np.concatenate([state.plastic_strain, state.eqps[..., None]], axis=-1)
-    mapped = RegularGridInterpolator(grid, values, bounds_error=False, fill_value=0.0)(points)
-    return mapped[..., :6], np.maximum(mapped[..., 6], 0.0)
+        points = np.stack(np.meshgrid(x1, x2, x3, indexing="ij"), axis=-1)
+        grid = (sx1, sx2, state.x3)
+        mapped = RegularGridInterpolator(grid, np.concatenate(parts, axis=-1),
+                                         bounds_error=False, fill_value=0.0)(points)
+    backstress = None if state.backstress is None else mapped[..., 7:13].copy()
+    return MappedState(mapped[..., :6].copy(), np.maximum(mapped[..., 6], 0.0), backstress)
 
 
 #: Relative tolerance (of a cell) under which two grids' centres are the same.

@@ -7,6 +7,7 @@ surface. Errors name ``initial_state`` and the fix.
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import netCDF4
@@ -63,15 +64,34 @@ def _open(case: Case, arrays: bool) -> StoredState | None:
         with netCDF4.Dataset(path) as nc:
             nc.set_auto_mask(False)
             if arrays:
-                return _read(nc, spec.step, where)
-            _check(nc, spec.step, where)
+                return _read(nc, spec.step, where, _kinematic(case))
+            _check(nc, spec.step, where, _kinematic(case))
             return None
     except OSError as exc:
         raise InitialStateError(f"{where}: not a readable run file ({exc})") from None
 
 
-def _check(nc: netCDF4.Dataset, step: int, where: str) -> None:
-    """Check that the file is a run with that step and the variables a start needs."""
+def _kinematic(case: Case) -> bool:
+    return getattr(case.body.hardening, "kinematic", None) is not None
+
+
+def _source_kinematic(nc: netCDF4.Dataset) -> dict | None:
+    """Return the source case's ``[body.hardening.kinematic]`` table (None: isotropic only)."""
+    try:
+        stored = json.loads(str(nc.getncattr("case")))
+    except (AttributeError, ValueError):
+        return None
+    return (stored.get("body", {}).get("hardening", {}) or {}).get("kinematic")
+
+
+def _check(nc: netCDF4.Dataset, step: int, where: str, kinematic: bool) -> None:
+    """Check that the file is a run with that step and the variables a start needs.
+
+    A source with kinematic hardening carries its backstress over: it must be stored, and the
+    case must have kinematic hardening too (dropping the backstress would move every yield
+    surface back to the origin without saying so). A source without kinematic hardening has a
+    zero backstress, so a kinematic case may start from it.
+    """
     if "case_id" not in nc.ncattrs() or "step" not in nc.variables:
         raise InitialStateError(f"{where}: not a sacflow run file")
     steps = np.asarray(nc["step"][:])
@@ -84,22 +104,36 @@ def _check(nc: netCDF4.Dataset, step: int, where: str) -> None:
             f"{where}: the run does not store {', '.join(missing)}; run the source with them in "
             "[output] fields"
         )
+    source = _source_kinematic(nc)
+    if source is not None and not kinematic:
+        constants = ", ".join(f"{k} = {v:g}" for k, v in source.items())
+        raise InitialStateError(
+            f"{where}: the source has kinematic hardening ({constants}) and its backstress "
+            "would be lost; add [body.hardening.kinematic] to this case"
+        )
+    if source is not None and "backstress" not in nc.variables:
+        raise InitialStateError(
+            f"{where}: the source has kinematic hardening but does not store its backstress; "
+            "run the source with backstress in [output] fields"
+        )
 
 
-def _read(nc: netCDF4.Dataset, step: int, where: str) -> StoredState:
-    _check(nc, step, where)
+def _read(nc: netCDF4.Dataset, step: int, where: str, kinematic: bool) -> StoredState:
+    _check(nc, step, where, kinematic)
     steps = np.asarray(nc["step"][:])
     index = step % steps.size
-    arrays = {name: np.asarray(nc[name][index], dtype=float) for name in NEEDED}
+    names = (*NEEDED, "backstress") if _source_kinematic(nc) is not None else NEEDED
+    arrays = {name: np.asarray(nc[name][index], dtype=float) for name in names}
     if any(not np.isfinite(a).all() for a in arrays.values()):
         raise InitialStateError(
-            f"{where}: step {int(steps[index])} has no stored plastic strain and equivalent "
-            "plastic strain; run the source with them in [output] fields, stored at that step "
+            f"{where}: step {int(steps[index])} has no stored {' and '.join(arrays)}; run the "
+            "source with them in [output] fields, stored at that step "
             "(output.volume_every = 1, or pick a stored step)"
         )
     x1, x2, x3 = (np.asarray(nc[x][:], dtype=float) for x in ("x1", "x2", "x3"))
     return StoredState(x1, x2, x3, arrays["plastic_strain"], arrays["equivalent_plastic_strain"],
-                       case_id=str(nc.getncattr("case_id")), step=int(steps[index]))
+                       case_id=str(nc.getncattr("case_id")), step=int(steps[index]),
+                       backstress=arrays.get("backstress"))
 
 
 def stored_step_number(path: Path, step: int) -> int | None:

@@ -878,9 +878,6 @@ class Case(Model):
         if self.initial_state is not None and self.body.initial_hardening is not None:
             raise field_error("body.initial_hardening", "not with initial_state: the hardening "
                               "comes from the stored run; remove one of them")
-        if self.initial_state is not None and getattr(self.body.hardening, "kinematic", None):
-            raise field_error("initial_state", "a chained case does not carry a backstress "
-                              "over yet: remove [body.hardening.kinematic] or initial_state")
         if self.initial_state is not None and self.body.hardening.law == "elastic":
             raise field_error("initial_state", "an elastic body keeps no plastic state; give a "
                               "plastic hardening law or remove initial_state")

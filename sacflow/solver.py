@@ -196,7 +196,10 @@ class Simulation:
                 "or use sacflow.run"
             )
         c = self.coords
-        self.plastic_strain, self.eqps = map_state(stored, c.x1, c.x2, c.x3, spec.offset)
+        mapped = map_state(stored, c.x1, c.x2, c.x3, spec.offset)
+        self.plastic_strain, self.eqps = mapped.plastic_strain, mapped.eqps
+        if self.backstress is not None and mapped.backstress is not None:
+            self.backstress = mapped.backstress  # else zero: the source had no kinematic law
         self._eqps0 = self.eqps.copy()
         self.source = stored
         if self.plastic_strain.any():

@@ -4,7 +4,8 @@
 * an Armstrong–Frederick body stores its backstress, which is deviatoric and stays on the yield
   surface with the stress where the body flowed last;
 * an interrupted run resumes from the stored backstress and equals the uninterrupted one;
-* ``backstress`` cannot be asked for without kinematic hardening.
+* ``backstress`` cannot be asked for without kinematic hardening;
+* a chained case carries the source's backstress over, and refuses to drop it.
 """
 
 from __future__ import annotations
@@ -84,6 +85,36 @@ def test_backstress_field_needs_kinematic_hardening():
         load_case(CASE, ['output.fields=["load", "backstress"]'])
 
 
-def test_chained_case_with_kinematic_hardening_is_refused(tmp_path):
-    with pytest.raises(SacflowError, match="does not carry a backstress"):
-        load_case(CASE, [*AF, f"initial_state.run={tmp_path / 'source.nc'}"])
+def _chained_runs(out: Path) -> tuple[Path, Path, Path]:
+    """Two lifted passes in one run, and the same as one pass + a chained second pass."""
+    same_lift = ["load_path.1.lift_increments=4"]
+    whole = load_case(CASE, [*TINY, *AF, *same_lift, "name=whole"])
+    first = load_case(CASE, [*TINY, *AF, "load_path.1.passes=1", "load_path.2.increments=4",
+                               "name=first"])
+    paths = [runner.run_case(c, out, progress=False).path for c in (whole, first)]
+    second = load_case(CASE, [*TINY, *AF, "load_path.1.passes=1", "name=second",
+                              f"initial_state.run={paths[1]}"])
+    return (*paths, runner.run_case(second, out, progress=False).path)
+
+
+def test_chained_case_carries_the_backstress_over(tmp_path):
+    whole_path, first_path, second_path = _chained_runs(tmp_path)
+    whole, second = sacflow.open_run(whole_path), sacflow.open_run(second_path)
+    assert sacflow.open_run(first_path)["backstress"].isel(step=-1).any()
+    # the chained pass is the whole run's second pass: reload, roll, unload
+    np.testing.assert_allclose(second["load"].values, whole["load"].values[-14:])
+    for name in ("backstress", "plastic_strain", "equivalent_plastic_strain"):
+        a = np.asarray(second[name].isel(step=-1).values, float)
+        b = np.asarray(whole[name].isel(step=-1).values, float)
+        scale = float(np.abs(b).max())
+        assert scale > 0, name
+        # the same arrays in, the same solves after: equal to round-off
+        np.testing.assert_allclose(a, b, rtol=0, atol=1e-9 * scale, err_msg=name)
+
+
+def test_chained_case_without_kinematic_hardening_is_refused(tmp_path):
+    first = load_case(CASE, [*TINY, *AF, "load_path.1.passes=1"])
+    path = runner.run_case(first, tmp_path, progress=False).path
+    with pytest.raises(SacflowError, match="backstress would be lost"):
+        runner.run_case(load_case(CASE, [*TINY, "name=second", f"initial_state.run={path}"]),
+                        tmp_path, progress=False)
