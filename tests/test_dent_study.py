@@ -41,7 +41,7 @@ def study(tmp_path_factory):
 
 
 def test_summary_pairs_each_dent_with_its_smooth_case(study):
-    summary = xr.open_dataset(study / "dent-study-summary.nc")
+    summary = xr.load_dataset(study / "dent-study-summary.nc")
     assert summary.sizes["case"] == 18  # 3 depths x 3 widths x 2 loads
     assert sorted(set(summary["load"].values)) == [675.0, 1318.0]
     np.testing.assert_allclose(summary["dent_slope"], summary["dent_depth"] / summary["dent_width"])
@@ -66,7 +66,7 @@ def test_summary_pairs_each_dent_with_its_smooth_case(study):
 
 
 def test_a_deeper_dent_raises_the_pressure_peak_and_the_index(study):
-    summary = xr.open_dataset(study / "dent-study-summary.nc")
+    summary = xr.load_dataset(study / "dent-study-summary.nc")
     for load in (675.0, 1318.0):
         for width in np.unique(summary["dent_width"].values):
             row = summary.where((summary["load"] == load) & (summary["dent_width"] == width),

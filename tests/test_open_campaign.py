@@ -112,3 +112,25 @@ def test_cf_names_are_valid_and_distinct():
     assert names == {"load_path.0.to": "load_path_0_to", "load_path_0.to": "load_path_0_to_2",
                      "0.x": "p_0_x", "a b": "a_b", "grid.nx": "grid_nx_2"}
     assert all(CF_NAME.match(n) for n in names.values())
+
+
+def _open_descriptors(folder: Path) -> int:
+    """Count this process's open file descriptors on ``folder``'s run files (Linux /proc)."""
+    runs = {p.resolve() for p in folder.glob("*.nc")}
+    count = 0
+    for fd in Path("/proc/self/fd").iterdir():
+        try:
+            count += Path(fd.readlink()) in runs
+        except OSError:
+            continue
+    return count
+
+
+@pytest.mark.skipif(not Path("/proc/self/fd").is_dir(), reason="needs /proc/self/fd")
+def test_close_releases_the_run_files(smoke):
+    before = _open_descriptors(smoke)
+    opened = sacflow.open_campaign(smoke)
+    float(next(iter(opened.fields.children.values()))["pressure"].max())
+    assert _open_descriptors(smoke) > before
+    opened.close()
+    assert _open_descriptors(smoke) == before

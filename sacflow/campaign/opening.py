@@ -135,14 +135,19 @@ def open_campaign(source: str | Path) -> CampaignResults:
     name, records = _records(manifest)
     runs: dict[str, xr.Dataset] = {}
     rows = []
-    for record in records:
-        path = manifest.parent / Path(str(record.get("path", f"{record['name']}.nc"))).name
-        ds = _open_finished(path, record)
-        if ds is None:
-            rows.append(dict.fromkeys(RESULT_NAMES, np.nan))
-            continue
-        runs[str(record["name"])] = ds
-        rows.append(run_results(ds))
+    try:
+        for record in records:
+            path = manifest.parent / Path(str(record.get("path", f"{record['name']}.nc"))).name
+            ds = _open_finished(path, record)
+            if ds is None:
+                rows.append(dict.fromkeys(RESULT_NAMES, np.nan))
+                continue
+            runs[str(record["name"])] = ds
+            rows.append(run_results(ds))
+    except BaseException:
+        for ds in runs.values():
+            ds.close()
+        raise
     fill_wall_times(rows, records)
     parameters = list(dict.fromkeys(k for r in records for k in r.get("parameters", {})))
     summary = summary_dataset(
@@ -155,7 +160,13 @@ def open_campaign(source: str | Path) -> CampaignResults:
         },
         attrs={"title": f"campaign {name}", "campaign": name, "manifest": str(manifest)},
     )
-    return CampaignResults(name, manifest, summary, xr.DataTree.from_dict(runs))
+    fields = xr.DataTree.from_dict(runs)
+    for case, ds in runs.items():
+        # a node built from a dataset does not inherit its closer: without this, the files
+        # stay open until garbage collection, which may close one while the same file is being
+        # opened again in this process (HDF5 then fails with "NetCDF: HDF error")
+        fields[case].set_close(ds.close)
+    return CampaignResults(name, manifest, summary, fields)
 
 
 def _open_finished(path: Path, record: dict[str, Any]) -> xr.Dataset | None:
