@@ -9,7 +9,10 @@ active set) the sweeps can stall; the solver then switches to semismooth Newton 
 ``J = I − ∂G/∂x`` is given by the caller as a matrix-free operator, inverted inexactly by
 restarted GMRES (Saad & Schultz 1986; forcing term as in Eisenstat & Walker, SIAM J. Sci. Comput.
 17 (1996) 16: the linear tolerance follows the nonlinear residual), with a backtracking line
-search on the residual.
+search on the Euclidean norm of ``F`` (a smooth merit function, where the maximum norm of the
+convergence test is not). A Newton step that no step length makes a descent (the Jacobian is
+inexact: the caller may leave couplings out) is not taken: the solver sweeps from the same
+iterate with a fresh Anderson history, and returns to Newton when the sweeps stall again.
 
 Nothing here knows about contact or plasticity: the caller's ``evaluate(x)`` returns ``G(x)``,
 the relative residual it converges on, and any data its Jacobian needs.
@@ -56,9 +59,10 @@ class NewtonSettings:
         Bounds of the relative GMRES tolerance, which otherwise equals the current nonlinear
         residual (a forcing term: loose far from the solution, tight near it).
     line_search_halvings : int
-        Times a Newton step may be halved while it does not lower the residual.
+        Times a Newton step may be halved while it does not lower the merit ``‖G(x) − x‖₂``.
     shortest_step : float
-        Step length below which the line search accepts the step anyway (it must move).
+        Step length below which the line search stops halving; a step that still does not
+        lower the merit is then refused (the solver sweeps instead).
     """
 
     progress_ratio: float = 0.5
@@ -164,15 +168,30 @@ def solve_fixed_point(
             stalled += 1
             newton = newton or stalled > settings.stall_sweeps
         previous = ev.residual
-        if not newton or jacobian is None:
-            x = ev.gx if mixer is None else mixer.step(x.ravel(), ev.gx.ravel()).reshape(shape)
-            ev = evaluate(x)
-            sweeps += 1
-            log.debug("%s sweep %d: residual %.3e", label, iteration, ev.residual)
-            continue
-        x, ev = _newton_step(evaluate, jacobian, x, ev, settings, label)
-        newton_steps += 1
+        if newton and jacobian is not None:
+            x_new, ev_new = _newton_step(evaluate, jacobian, x, ev, settings, label)
+            newton_steps += 1
+            if _merit(x_new, ev_new) < _merit(x, ev):
+                x, ev = x_new, ev_new
+                continue
+            # No step length lowered the residual: the Jacobian (inexact, or at a kink of G)
+            # points nowhere useful here. Sweep from the unchanged iterate instead, with a fresh
+            # Anderson history; Newton takes over again when the sweeps stall. (The sweep's
+            # evaluation is then the last one, as callers that keep its by-products expect.)
+            log.debug("%s newton: no descent, back to sweeps", label)
+            newton, stalled, best = False, 0, ev.residual
+            if mixer is not None:
+                mixer.reset()
+        x = ev.gx if mixer is None else mixer.step(x.ravel(), ev.gx.ravel()).reshape(shape)
+        ev = evaluate(x)
+        sweeps += 1
+        log.debug("%s sweep %d: residual %.3e", label, iteration, ev.residual)
     raise FixedPointError(ev.residual, max_iterations)
+
+
+def _merit(x: np.ndarray, ev: Evaluation) -> float:
+    """Euclidean norm of ``F(x) = G(x) − x``: the line search's merit (smooth, unlike the max)."""
+    return float(np.linalg.norm(ev.gx - x))
 
 
 def _newton_step(
@@ -191,10 +210,11 @@ def _newton_step(
                      restart=settings.gmres_restart, maxiter=settings.gmres_restarts)
     delta = delta.reshape(x.shape)
     length = 1.0
+    merit = _merit(x, ev)
     for _ in range(settings.line_search_halvings):
         x_try = x + length * delta
         ev_try = evaluate(x_try)
-        if ev_try.residual < ev.residual or length < settings.shortest_step:
+        if _merit(x_try, ev_try) < merit or length < settings.shortest_step:
             break
         length *= 0.5
     log.debug("%s newton: residual %.3e -> %.3e (step length %.3g)", label, ev.residual,

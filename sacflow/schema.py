@@ -65,6 +65,11 @@ __all__ = [
 MIN_CELLS_PER_DIAMETER = 8
 #: Least window half-width, in Hertz contact radii at the maximum load.
 MIN_HALF_WIDTH = 1.1
+#: Largest Hertz contact radius over the effective radius of curvature at the maximum load.
+#: Half-space theory, behind every influence coefficient, needs a << R (Johnson, Contact
+#: Mechanics, §4.2; the shipped cases have a/R <= 0.15); beyond this it describes another
+#: problem than the one asked (a load or radius off by orders of magnitude, usually).
+MAX_CONTACT_TO_RADIUS = 0.5
 #: Range of the cuboid layer thickness (grid.depth / grid.nz) over the smaller surface cell
 #: size, when grid.depth is given. Measured on the 650 mN indentation at 16 x 16 cells: the
 #: eigenstrain kernels lose their symmetry to round-off (RuntimeError) below 3e-4 and above
@@ -886,6 +891,16 @@ class Case(Model):
     @model_validator(mode="after")
     def _check_grid(self) -> Case:
         a = self._contact_radius()
+        radius = self.hertz().radius
+        if a > MAX_CONTACT_TO_RADIUS * radius:
+            raise field_error(
+                "counterbody.radius",
+                f"the Hertz contact radius at the largest load ({self.max_load:.4g} N) is "
+                f"a = {1e6 * a:.4g} µm, {a / radius:.3g} times the effective radius of "
+                f"curvature R = {1e6 * radius:.4g} µm: half-space contact theory needs a small "
+                f"against R (a/R <= {MAX_CONTACT_TO_RADIUS}); check the radii (in m) and the "
+                "load (in N)",
+            )
         l1, l2 = self.window_extent()
         if min(l1, l2) < 2.0 * MIN_HALF_WIDTH * a:
             raise self._window_error(a)
@@ -900,7 +915,35 @@ class Case(Model):
                     f"use {field} >= {n_min} or a smaller window",
                 )
         self._check_layers()
+        self._check_track()
         return self
+
+    def _check_track(self) -> None:
+        """Check that the body grid, which covers every load position, stays within MAX_CELLS."""
+        cell = self.cell_size()
+        position = [0.0, 0.0]
+        low, high = list(position), list(position)
+        for i, seg in enumerate(self.load_path):
+            field = f"load_path.{i}.at"
+            if isinstance(seg, Roll):
+                norm = math.hypot(*seg.direction) or 1.0
+                position = [x + seg.distance * d / norm
+                            for x, d in zip(position, seg.direction, strict=True)]
+                field = f"load_path.{i}.distance"
+            elif (at := getattr(seg, "at", None)) is not None:
+                position = [float(at[0]), float(at[1])]
+            for axis in (0, 1):
+                low[axis], high[axis] = min(low[axis], position[axis]), max(high[axis],
+                                                                            position[axis])
+                cells = (high[axis] - low[axis]) / cell[axis]
+                if not cells <= MAX_CELLS:
+                    raise field_error(
+                        field,
+                        f"the load travels {high[axis] - low[axis]:.3g} m along x{axis + 1}, "
+                        f"{cells:.3g} surface cells of {cell[axis]:.3g} m; the body grid covers "
+                        f"the whole track and holds at most {MAX_CELLS} cells along an axis: "
+                        "shorten the track or coarsen the grid",
+                    )
 
     def _check_layers(self) -> None:
         """Check that a given box depth makes cuboid layers of a usable shape (MIN_LAYER_ASPECT)."""

@@ -30,7 +30,7 @@ import logging
 import math
 import warnings
 from collections.abc import Iterator, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -74,6 +74,15 @@ log = logging.getLogger(__name__)
 _GROWTH = 1.5
 #: Smallest scale of a relative residual (guards the division when everything is zero).
 _TINY = 1e-300
+#: Relative step of the finite-difference Jacobian of the coupled fixed point (see
+#: Simulation._fixed_point): ε = FD_STEP · max|x| / max|v|. Well above the noise of a contact
+#: solve converged to 1e-10 (which then perturbs J v by about 1e-4 of its size, below the
+#: loosest GMRES forcing term used, 1e-1 ... 1e-4 of the residual), well below the plastic
+#: increments' own variation.
+FD_STEP = 1e-6
+#: Times an increment that does not converge is cut in two and solved again (Simulation.run):
+#: at most 2**MAX_CUTBACKS sub-increments per stored step.
+MAX_CUTBACKS = 3
 
 
 @dataclass(frozen=True)
@@ -371,8 +380,15 @@ class Simulation:
             return res < opts.plasticity_tolerance and last["du"] < opts.coupling_tolerance
 
         x = np.zeros(self.plastic_strain.shape)  # a moved copy of the last increment: worse
-        dx, dp, applications, res = self._fixed_point(
-            sigma, x, step, converged, "plasticity", accept_iterate=True)
+        try:
+            dx, dp, applications, res = self._fixed_point(
+                sigma, x, step, converged, "plasticity", coupled=True)
+        except ConvergenceError as exc:
+            if exc.residual < opts.plasticity_tolerance:  # the residual displacement still moved
+                raise ConvergenceError("coupling", step=step, residual=last["du"],
+                                       tolerance=opts.coupling_tolerance,
+                                       iterations=exc.iterations) from None
+            raise
         coupling = 0.0 if not np.isfinite(last["du"]) else last["du"]
         return last["result"], (dx, dp), applications, last["fields"], (res, coupling)
 
@@ -420,7 +436,7 @@ class Simulation:
                                iterations=opts.coupling_max_iterations)
 
     def _fixed_point(
-        self, sigma, x: np.ndarray, step: int, converged, what: str, accept_iterate: bool = False
+        self, sigma, x: np.ndarray, step: int, converged, what: str, coupled: bool = False
     ):
         """Plastic strain increment ``x = G(x) = Δεp_return(σ(x) + 2μ x)`` (seed Fig. 4).
 
@@ -430,11 +446,20 @@ class Simulation:
         increment, or to the plastic strain already there when that is larger: a hold step, or a
         rolling step far from the load, changes the plastic strain by round-off). Solved by
         :func:`sacflow.nonlinear.solve_fixed_point`: sweeps accelerated by Anderson mixing
-        (plain sweeps without acceleration) and, when they stall, semismooth Newton with the
-        Jacobian ``I − T (A + 2μ)`` (``T`` the algorithmic tangent of the return, ``A`` the
-        residual-stress operator; the pressure's dependence on ``x`` is left out) applied
-        matrix-free. Returns ``(Δεp, Δp, residual-stress applications, final residual)`` with
-        ``Δεp = G(x)``, or the converged iterate ``x`` itself with ``accept_iterate``.
+        (plain sweeps without acceleration) and, when they stall, semismooth Newton–Krylov.
+
+        At a fixed pressure (the nested scheme) the Jacobian is ``I − T (A + 2μ)``, ``T`` the
+        algorithmic tangent of the return and ``A`` the residual-stress operator, applied
+        matrix-free. In the ``coupled`` scheme ``σ(x)`` re-solves the contact, so the pressure
+        depends on ``x`` too; that Jacobian misses it, and where the contact reacts strongly to
+        the residual displacement (large plastic zones) its Newton steps are no descent
+        directions. There the Jacobian is a directional finite difference of ``G`` itself,
+        ``J v = v − (G(x + εv) − G(x)) / ε`` (Jacobian-free Newton–Krylov: Knoll & Keyes,
+        J. Comput. Phys. 193 (2004) 357; ε from :data:`FD_STEP`), at the cost of one
+        evaluation (a residual-stress application and a warm-started contact solve) per
+        product, as the analytic one costs one application. Returns ``(Δεp, Δp,
+        residual-stress applications, final residual)`` with ``Δεp = G(x)``, or, ``coupled``,
+        the converged iterate ``x`` itself (whose residual fields the last evaluation computed).
         """
         from scipy.sparse.linalg import LinearOperator  # plastic runs only
 
@@ -459,6 +484,8 @@ class Simulation:
 
         def jacobian(x: np.ndarray, ev: Evaluation) -> LinearOperator:
             """``I − T (A + 2μ)``: ``T`` the return's algorithmic tangent, ``A`` residual stress."""
+            if coupled:
+                return difference_jacobian(x, ev)
             trial, ret = ev.data
             tangent = self._tangent(trial, ret, eqps, depth)
 
@@ -467,6 +494,20 @@ class Simulation:
                 applications += 1
                 v = v.reshape(shape)
                 return (v - tangent.apply(self._eigen.residual_stress(v) + 2.0 * mu * v)).ravel()
+
+            return LinearOperator((n, n), matvec=matvec, dtype=float)
+
+        def difference_jacobian(x: np.ndarray, ev: Evaluation) -> LinearOperator:
+            """``v − (G(x + εv) − G(x)) / ε``: the pressure's response to ``x`` included."""
+            size_x = max(float(np.abs(x).max()), strain_scale)
+
+            def matvec(v: np.ndarray) -> np.ndarray:
+                v = v.reshape(shape)
+                size_v = float(np.abs(v).max())
+                if size_v == 0.0:
+                    return np.zeros(n)
+                eps = FD_STEP * size_x / size_v
+                return (v - (evaluate(x + eps * v).gx - ev.gx) / eps).ravel()
 
             return LinearOperator((n, n), matvec=matvec, dtype=float)
 
@@ -485,7 +526,7 @@ class Simulation:
                                    iterations=exc.iterations) from None
         ret = out.evaluation.data[1]
         self._last_backstress = getattr(ret, "backstress", None)
-        dx = out.x if accept_iterate else ret.plastic_strain_increment
+        dx = out.x if coupled else ret.plastic_strain_increment
         return dx, ret.eqps_increment, applications, out.evaluation.residual
 
     def _return(self, trial: np.ndarray, eqps: np.ndarray, depth: np.ndarray):
@@ -515,7 +556,8 @@ class Simulation:
         Raises
         ------
         ConvergenceError
-            When an increment does not converge (the states already yielded stay valid).
+            When an increment does not converge even cut into ``2**MAX_CUTBACKS``
+            sub-increments (the states already yielded stay valid).
         """
         every = self.case.output.volume_every
         for step, plan in enumerate(self.steps[start:], start):
@@ -576,6 +618,47 @@ class Simulation:
 
     def _advance(self, step: int, plan: StepPlan, every: int) -> State:
         """Solve increment ``step`` of the load path and return its state."""
+        start = self.steps[step - 1] if step > 0 else replace(plan, load=0.0)
+        inc, substeps = self._solve_cutting_back(step, start, plan, 0)
+        volume = {}
+        pass_end = plan.pass_end and self.multi_pass  # repeated rolling: every pass's end
+        if step % every == every - 1 or step == self.total_steps - 1 or pass_end:
+            volume = self._volume_fields(inc.contact, inc.window)
+        return self._state(step, plan, inc, volume, substeps)
+
+    def _solve_cutting_back(
+        self, step: int, start: StepPlan, end: StepPlan, level: int
+    ) -> tuple[Increment, int]:
+        """Go from ``start`` to ``end``; when that does not converge, in two halves, and so on.
+
+        Automatic cutback, as finite-element codes do it: an increment whose fixed point does not
+        converge (a large change of the plastic zone or of the contact in one step, typically an
+        elastic-perfectly plastic body far above its shakedown limit) is solved again as two
+        half increments (load and, while loaded, position halfway), each of them cut again if
+        needed, up to :data:`MAX_CUTBACKS` times. The state stored is the one at ``end``, as
+        without cutback; the step records how many sub-increments it took. Returns the last
+        sub-increment (iteration counts summed over all) and their number.
+        """
+        saved = (None if self._pressure is None else self._pressure.copy(), self._h_offset)
+        try:
+            return self._solve_and_commit(step, end), 1
+        except ConvergenceError as exc:
+            if level >= MAX_CUTBACKS:
+                raise
+            self._pressure, self._h_offset = saved  # as before the failed attempt
+            log.info("step %d: %s; cutting the increment in two (level %d)", step, exc, level + 1)
+        middle = _halfway(start, end)
+        first, n_first = self._solve_cutting_back(step, start, middle, level + 1)
+        last, n_last = self._solve_cutting_back(step, middle, end, level + 1)
+        merged = replace(
+            last,
+            contact_iterations=first.contact_iterations + last.contact_iterations,
+            plasticity_iterations=first.plasticity_iterations + last.plasticity_iterations,
+        )
+        return merged, n_first + n_last
+
+    def _solve_and_commit(self, step: int, plan: StepPlan) -> Increment:
+        """Solve the increment to ``plan`` and take its plastic update into the body's state."""
         if plan.load <= 0.0:
             self._pressure = None
         inc = self._increment(step, plan)
@@ -592,11 +675,7 @@ class Simulation:
                 self.residual_stress, self.residual_displacement = self._eigen.residual_stress(
                     self.plastic_strain, with_displacement=True)
             self._check_box(step)
-        volume = {}
-        pass_end = plan.pass_end and self.multi_pass  # repeated rolling: every pass's end
-        if step % every == every - 1 or step == self.total_steps - 1 or pass_end:
-            volume = self._volume_fields(inc.contact, inc.window)
-        return self._state(step, plan, inc, volume)
+        return inc
 
     def _check_box(self, step: int) -> None:
         """Stop when plastic strain reaches the bottom of the box; warn when it reaches a side.
@@ -643,7 +722,9 @@ class Simulation:
         t1, t2 = self.traction or (0.0, 0.0)
         return {"shear_traction": np.stack((t1 * pressure, t2 * pressure), axis=-1)}
 
-    def _state(self, step: int, plan: StepPlan, inc: Increment, volume: dict) -> State:
+    def _state(
+        self, step: int, plan: StepPlan, inc: Increment, volume: dict, substeps: int = 1
+    ) -> State:
         shape, sl, result, geometry = self.body_shape, inc.window, inc.contact, inc.geometry
         n_contact, n_plastic = inc.contact_iterations, inc.plasticity_iterations
         pressure = np.zeros(shape)
@@ -672,6 +753,7 @@ class Simulation:
             step=step,
             segment=plan.segment,
             pass_index=plan.pass_index,
+            substeps=substeps,
             load=float(plan.load),
             approach=float(result.approach),
             load_x1=float(plan.position[0]),
@@ -699,6 +781,21 @@ class Simulation:
             },
             volume=volume,
         )
+
+
+def _halfway(start: StepPlan, end: StepPlan) -> StepPlan:
+    """Return the plan halfway from ``start`` to ``end``.
+
+    Half the load change; half the way while loaded at both ends (a roll), otherwise at
+    ``end``'s position (a load or unload in place, or the ball put down at the start of a new
+    pass after being lifted).
+    """
+    loaded = start.load > 0.0 and end.load > 0.0
+    position = (
+        (0.5 * (start.position[0] + end.position[0]), 0.5 * (start.position[1] + end.position[1]))
+        if loaded else end.position
+    )
+    return replace(end, load=0.5 * (start.load + end.load), position=position, pass_end=False)
 
 
 def _measured_heights(case, surface: MeasuredSurface | None):

@@ -49,6 +49,7 @@ SCALAR_FIELDS: tuple[str, ...] = (
     "coupling_residual",
     "segment",
     "pass",
+    "substeps",
 )
 #: Surface fields, arrays of shape (nx1, nx2), or (nx1, nx2, 2) for the shear traction.
 SURFACE_FIELDS: tuple[str, ...] = (
@@ -113,8 +114,9 @@ class State:
     error; plasticity: relative fixed-point residual of the plastic strain increment; coupling:
     relative change of the residual surface displacement) and whether it met its tolerance;
     ``converged`` is all three; ``pass_index`` (stored as ``pass``) the rolling pass the step
-    belongs to (:class:`~sacflow.layout.StepPlan`). ``surface`` maps names of
-    :data:`SURFACE_FIELDS` to (nx1, nx2) arrays; ``volume`` maps names of
+    belongs to (:class:`~sacflow.layout.StepPlan`); ``substeps`` the sub-increments the step was
+    solved in (1, or more after a cutback: :meth:`sacflow.solver.Simulation.run`). ``surface``
+    maps names of :data:`SURFACE_FIELDS` to (nx1, nx2) arrays; ``volume`` maps names of
     :data:`VOLUME_FIELDS` to arrays, and is empty on steps where volume output is skipped
     (Output.volume_every; repeated rolling stores it at the end of every pass too).
     ``restart`` maps the names of :data:`RESTART_FIELDS` to the solver's state after the step
@@ -145,6 +147,7 @@ class State:
     restart: dict[str, np.ndarray] = field(default_factory=dict)
     first_contact_offset: float | None = None
     pass_index: int = 0
+    substeps: int = 1
 
     def scalars(self) -> dict[str, float | int | bool]:
         """Return the per-step scalars as a dict keyed by :data:`SCALAR_FIELDS`."""

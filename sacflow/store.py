@@ -131,6 +131,9 @@ VARIABLES: dict[str, Variable] = {
         SCALAR, "1", "final relative change of the residual surface displacement"),
     "segment": Variable(SCALAR, "1", "index of the load path segment", "i4"),
     "pass": Variable(SCALAR, "1", "rolling pass of the step, from 0", "i4"),
+    "substeps": Variable(
+        SCALAR, "1", "sub-increments the step was solved in (1: the step itself; more: it was "
+        "cut back after not converging)", "i4"),
     # surface fields
     "pressure": Variable(SURFACE, "Pa", "contact pressure"),
     "shear_traction": Variable(

@@ -11,6 +11,7 @@ from sacflow.nonlinear import (
     Evaluation,
     FixedPointError,
     NewtonSettings,
+    _newton_step,
     solve_fixed_point,
 )
 
@@ -132,6 +133,51 @@ def test_line_search_halves_an_overshooting_newton_step():
                             max_iterations=10, jacobian=jacobian, settings=settings)
     assert trials == [0.0, 1.0, 5.0, 3.0, 2.0]
     assert out.x[0] == 2.0 and out.newton_steps == 1 and out.sweeps == 1
+
+
+def test_a_newton_step_without_descent_is_refused_for_a_sweep():
+    """G(x) = x/2 + 1 (x* = 2) with a Jacobian of the wrong sign: every Newton step goes uphill.
+
+    No step length lowers ‖G(x) − x‖, so each Newton step is refused and the solver sweeps from
+    the same iterate instead: the iterates are those of plain sweeps, 1, 1.5, 1.75, ... (a
+    solver that took the shortest trial step anyway would walk away from x*).
+    """
+    accepted = []
+
+    def evaluate(x):
+        gx = 0.5 * x + 1.0
+        return Evaluation(gx, float(abs(gx[0] - x[0])), None)
+
+    def jacobian(x, ev):
+        accepted.append(float(x[0]))
+        return LinearOperator((1, 1), matvec=lambda v: -0.5 * v, dtype=float)
+
+    settings = NewtonSettings(progress_ratio=0.0)  # no sweep counts as progress: Newton
+    out = solve_fixed_point(evaluate, np.array([0.0]), lambda x, ev: ev.residual < 1e-12,
+                            max_iterations=60, jacobian=jacobian, settings=settings)
+    assert out.x[0] == pytest.approx(2.0, abs=1e-11)
+    assert out.newton_steps > 0 and out.sweeps == out.newton_steps + 1
+    assert_allclose(accepted[:4], [1.0, 1.5, 1.75, 1.875], rtol=0, atol=0)
+
+
+def test_the_line_search_merit_is_the_euclidean_norm():
+    """A Newton step that lowers ‖F‖₂ but raises max|F| is taken at full length.
+
+    G(x) = (1 + 1.2 x0, 1): at x = 0, F = G(x) − x = (1, 1). A Jacobian that sees no coupling
+    (I) gives the step (1, 1), where F = (1.2, 0): the Euclidean norm falls from 1.414 to 1.2, the
+    maximum rises from 1 to 1.2 (a line search on the maximum would halve this step).
+    """
+    def evaluate(x):
+        gx = np.array([1.0 + 1.2 * x[0], 1.0])
+        return Evaluation(gx, float(np.abs(gx - x).max()), None)
+
+    def jacobian(x, ev):
+        return LinearOperator((2, 2), matvec=lambda v: 1.0 * v, dtype=float)
+
+    x0 = np.zeros(2)
+    x, ev = _newton_step(evaluate, jacobian, x0, evaluate(x0), NewtonSettings(), "test")
+    assert_allclose(x, [1.0, 1.0], rtol=0, atol=1e-12)
+    assert ev.residual == pytest.approx(1.2)
 
 
 def test_the_iteration_limit_raises_with_the_last_residual():

@@ -63,10 +63,28 @@ def test_cases_without_passes_are_unchanged():
         ([1.0, 0.5, 0.45], [0.9, 0.4, 0.4], "ratcheting"),
         ([1.0, 0.5, 0.45], [0.9, 0.1, 0.02], "plastic shakedown"),
         ([1.0, 0.3, 0.1], [1.0, 0.3, 0.1], "undecided"),
+        ([1.0, 0.1, 0.0], [1.0, 0.1, 0.0], "elastic shakedown"),
+        # decaying by 5x, then by 2.5x: slowing down, and may yet level off
+        ([1.0, 0.02, 0.004, 0.0016], [1.0, 0.02, 0.004, 0.0016], "undecided"),
+        ([1.0, 0.02, 0.004, 0.0008], [1.0, 0.02, 0.004, 0.0008], "elastic shakedown"),
+        # levelled off below 1 % of the first pass: a steady cycle, not shakedown
+        ([1.0, 0.004, 0.003], [1.0, 0.001, 0.0002], "plastic shakedown"),
+        ([1.0, 0.004, 0.003], [1.0, 0.001, 0.0008], "ratcheting"),
+        # a steady net part that is mostly reversed flow still ratchets; below 1 % it is noise
+        ([1.0, 0.5, 0.45], [0.9, 0.05, 0.045], "ratcheting"),
+        ([1.0, 0.5, 0.45], [0.9, 1e-4, 1e-4], "plastic shakedown"),
     ],
 )
 def test_verdict_rule(flow, net, verdict):
     assert classify(flow, net) == verdict
+
+
+def test_flow_at_the_solver_resolution_counts_as_none():
+    # a tail of noise-level passes (ratio 0.7) is shakedown once below the floor, not ratcheting
+    flow = [1.0, 1e-3, 1e-5, 7e-6]
+    assert classify(flow, flow) == "ratcheting"
+    assert classify(flow, flow, floor=2.4e-5) == "elastic shakedown"
+    assert classify([1e-6, 1e-7], [1e-6, 1e-7], floor=1e-5) == "elastic"
 
 
 TINY = ["grid.nx=12", "grid.ny=12", "grid.nz=6", "load_path.1.steps=12",
@@ -103,3 +121,23 @@ def test_above_the_shakedown_limit_the_flow_does_not(tmp_path):
     flow = report["pass_plastic_increment_integral"].values
     assert flow[-1] > 0.8 * flow[-2] and flow[-1] > 1e-2 * flow[0]
     assert report.attrs["verdict"] in ("ratcheting", "plastic shakedown")
+
+
+def test_the_shakedown_campaign_sweeps_p0_over_k_at_a_roll_distance_of_4a():
+    """configs/campaign-rolling-cycles.toml: its loads give the p0/k it states (closed-form
+    Hertz) and each roll distance is 4 a at its load, so only p0/k changes between cases."""
+    from sacflow.campaign.expansion import expand_campaign, load_campaign
+    from sacflow.reference import composite_modulus, hertz_contact
+
+    cases = expand_campaign(load_campaign(ROOT / "configs" / "campaign-rolling-cycles.toml"))
+    ratios = []
+    for entry in cases:
+        case = entry.case
+        e_star = composite_modulus(case.body.E, case.body.nu, case.counterbody.E,
+                                   case.counterbody.nu)
+        hertz = hertz_contact(case.load_path[0].to, case.counterbody.radius, e_star)
+        k = case.body.hardening.yield_stress / np.sqrt(3.0)
+        ratios.append(hertz.p0 / k)
+        assert case.load_path[1].distance == pytest.approx(4.0 * hertz.a, rel=1e-4)
+        assert case.load_path[1].passes == 6
+    np.testing.assert_allclose(ratios, [3.5, 4.0, 4.5, 4.75, 5.0, 5.25, 5.5, 6.0], rtol=1e-4)

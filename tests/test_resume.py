@@ -202,7 +202,8 @@ def test_each_step_stores_its_loops_residuals(uninterrupted, indent_case):
 
 def test_non_converged_step_raises_after_storing_the_completed_steps(tmp_path):
     # Two elastic increments (p0 about 2 GPa, below the onset of yield), then a plastic one
-    # that cannot converge in 2 plasticity iterations.
+    # that cannot converge in 2 plasticity iterations, even cut back into eighths (the last
+    # attempt, from 0.01 to 0.09 N, ends in the contact solve of its second sweep).
     sets = ["grid.nx=16", "grid.ny=16", "grid.nz=8", "load_path.0.to=0.01",
             "load_path.0.increments=2", "solver.plasticity_max_iterations=2"]
     case = sacflow.load_case(INDENT, sets)
@@ -212,7 +213,7 @@ def test_non_converged_step_raises_after_storing_the_completed_steps(tmp_path):
     case = sacflow.schema.Case.model_validate(data)
     with pytest.raises(ConvergenceError, match="step 2") as err:
         runner.run_case(case, tmp_path, progress=False)
-    assert err.value.what == "plasticity" and err.value.residual > case.solver.plasticity_tolerance
+    assert err.value.step == 2 and err.value.residual > err.value.tolerance
     info = run_info(tmp_path / f"{case.name}.nc")
     assert info.steps == 2 and not info.complete, "the two converged steps are stored"
 

@@ -248,3 +248,19 @@ def test_no_leftover_output(tmp_path):  # the --out checks create the folder, no
     out = prepare_output_dir(tmp_path / "a" / "b")
     assert out.is_dir() and not list(out.iterdir())
     shutil.rmtree(tmp_path / "a")
+
+
+def test_a_contact_large_against_its_radius_is_refused():
+    # R = 20 µm instead of 20 mm at 4200 N: a = 82 µm, four times R
+    path = Path(__file__).resolve().parents[1] / "configs" / "rolling-smooth.toml"
+    with pytest.raises(ConfigError, match=r"counterbody\.radius: .*4\.09 times the effective "
+                                          r"radius.*a/R <= 0\.5"):
+        load_case(path, ["counterbody.radius=20e-6"])
+
+
+@pytest.mark.parametrize("override", ["load_path.1.distance=1e300", "load_path.0.at=[1e300, 0]"])
+def test_a_track_longer_than_the_body_grid_can_hold_is_refused(override):
+    path = Path(__file__).resolve().parents[1] / "configs" / "dent-rolling.toml"
+    with pytest.raises(ConfigError, match=r"load_path\.[01]\.(distance|at): the load travels "
+                                          r"1e\+300 m .*at most 65536 cells"):
+        load_case(path, [override])

@@ -17,13 +17,25 @@ with the first and the one before it (Johnson, *Contact Mechanics*, 1985, §9.3;
 Johnson, J. Mech. Phys. Solids 33 (1985) 339):
 
 * ``elastic``: no plastic flow in any pass;
-* ``elastic shakedown``: the last pass's flow ∫Δp is at most :data:`SHAKEDOWN_FRACTION` of the
-  first pass's;
-* ``ratcheting``: the flow no longer decays (last ≥ :data:`STEADY_RATIO` × the pass before) and
-  mostly does not reverse (net ≥ :data:`RATCHET_FRACTION` × ∫Δp): strain accumulates every pass;
-* ``plastic shakedown``: the flow no longer decays but reverses within the pass (alternating
-  plasticity, a closed cycle);
-* ``undecided``: still decaying: run more passes.
+* ``ratcheting``: the flow no longer decays (last ≥ :data:`STEADY_RATIO` × the pass before),
+  and neither does its net part (net ≥ :data:`STEADY_RATIO` × the pass before's net, and at least
+  :data:`RATCHET_FRACTION` of the pass's ∫Δp): strain accumulates by a steady amount every
+  pass, however much of the flow reverses within it;
+* ``plastic shakedown``: the flow no longer decays but its net part does (alternating
+  plasticity: the cycle closes);
+* ``elastic shakedown``: the flow stopped, or still decays (last < :data:`STEADY_RATIO` × the
+  pass before) at a rate that does not slow down (the last ratio of successive passes at most
+  :data:`SLOWING_FACTOR` × the one before it) and is down to :data:`SHAKEDOWN_FRACTION` of the
+  first pass's or less;
+* ``undecided``: still decaying, but not yet that far, or ever more slowly (near the shakedown
+  limit the ratio of successive passes creeps towards 1): run more passes.
+
+The decay is tested first: a flow that has levelled off at a small fraction of the first pass's
+(whose flow includes the first loading) is a steady cycle, not shakedown. A pass's flow at or
+below the solver's resolution counts as none: each step's plastic increment is converged to
+``solver.plasticity_tolerance`` of the plastic strain present, so a pass of n steps leaves about
+n × tolerance × (the first pass's flow) unresolved (attribute ``no_flow_below_m3``); below that,
+ratios of successive passes are noise.
 """
 
 from __future__ import annotations
@@ -42,8 +54,13 @@ __all__ = ["SHAKEDOWN_FRACTION", "pass_report", "plot_passes"]
 SHAKEDOWN_FRACTION = 1e-2
 #: Ratio of the last two passes' plastic flow above which the flow no longer decays.
 STEADY_RATIO = 0.5
-#: Share of a pass's plastic flow that must persist (not reverse) to call it ratcheting.
-RATCHET_FRACTION = 0.5
+#: Growth of the ratio of successive passes' flow, from one pass to the next, above which the
+#: decay counts as slowing down (3 or more passes): a geometric decay converges, a slowing one
+#: may not.
+SLOWING_FACTOR = 1.1
+#: Share of a pass's plastic flow below which its net part counts as a closed cycle (a floor
+#: well above the fixed-point tolerance, 1e-6 of the strain, at which a closed cycle closes).
+RATCHET_FRACTION = 1e-2
 
 
 def pass_report(run: str | Path | xr.Dataset) -> xr.Dataset:
@@ -90,7 +107,10 @@ def pass_report(run: str | Path | xr.Dataset) -> xr.Dataset:
         track = at["residual_displacement"].sel(x2=float(at["load_x2"]), method="nearest")
         rows["residual"].append(float(track.max()))
         p_prev, e_prev = p, e
-    verdict = classify(rows["integral"], rows["net"])
+    # what the fixed point leaves unresolved in a pass: each step's increment is converged to
+    # plasticity_tolerance of the plastic strain present (about the first pass's flow)
+    floor = (ends[-1] - ends[-2]) * case.solver.plasticity_tolerance * rows["integral"][0]
+    verdict = classify(rows["integral"], rows["net"], floor)
     n = len(ends)
     result = xr.Dataset(
         {
@@ -114,26 +134,38 @@ def pass_report(run: str | Path | xr.Dataset) -> xr.Dataset:
                          {"units": "1", "long_name": "rolling pass, from 0"})},
     )
     result.attrs.update(stage=stage, case=case.name, Conventions="CF-1.10", verdict=verdict,
-                        verdict_rule=VERDICT_RULE)
+                        verdict_rule=VERDICT_RULE, no_flow_below_m3=floor)
     return result
 
 
 VERDICT_RULE = (
-    f"elastic: no plastic flow; elastic shakedown: last pass's integral of dp <= "
-    f"{SHAKEDOWN_FRACTION:g} x the first's; ratcheting: last >= {STEADY_RATIO:g} x the pass "
-    f"before and net plastic strain >= {RATCHET_FRACTION:g} x its integral of dp; plastic "
-    f"shakedown: last >= {STEADY_RATIO:g} x the pass before, net below that; else undecided"
+    f"a pass's flow counts as none at or below (steps of the last pass) x "
+    f"plasticity_tolerance x the first pass's flow (attribute no_flow_below_m3); "
+    f"elastic: no plastic flow; ratcheting: last pass's integral of dp >= {STEADY_RATIO:g} x "
+    f"the pass before, its net plastic strain >= {STEADY_RATIO:g} x the pass before's and >= "
+    f"{RATCHET_FRACTION:g} x its integral of dp; plastic shakedown: last >= {STEADY_RATIO:g} x "
+    f"the pass before, net not so; elastic shakedown: no flow in the last pass, or last < "
+    f"{STEADY_RATIO:g} x the pass before, that ratio at most {SLOWING_FACTOR:g} x the previous "
+    f"one, and last <= {SHAKEDOWN_FRACTION:g} x the first's; else undecided"
 )
 
 
-def classify(flow: list[float], net: list[float]) -> str:
-    """Return the verdict (module docstring) from the per-pass flow ∫Δp and net ∫|Δεp|."""
-    if max(flow) <= 0.0:
+def classify(flow: list[float], net: list[float], floor: float = 0.0) -> str:
+    """Return the verdict (module docstring) from the per-pass flow ∫Δp and net ∫|Δεp|.
+
+    ``floor`` [m³]: a pass's flow at or below it counts as none (the solver's resolution).
+    """
+    if max(flow) <= floor:
         return "elastic"
-    if flow[-1] <= SHAKEDOWN_FRACTION * flow[0]:
+    if flow[-1] <= floor:
         return "elastic shakedown"
     if flow[-1] >= STEADY_RATIO * flow[-2]:
-        return "ratcheting" if net[-1] >= RATCHET_FRACTION * flow[-1] else "plastic shakedown"
+        steady_net = net[-1] >= STEADY_RATIO * net[-2] and net[-1] >= RATCHET_FRACTION * flow[-1]
+        return "ratcheting" if steady_net else "plastic shakedown"
+    slowing = len(flow) >= 3 and flow[-2] > 0.0 and (
+        flow[-1] * flow[-3] > SLOWING_FACTOR * flow[-2] ** 2)  # r_last > SLOWING_FACTOR r_prev
+    if flow[-1] <= SHAKEDOWN_FRACTION * flow[0] and not slowing:
+        return "elastic shakedown"
     return "undecided"
 
 
