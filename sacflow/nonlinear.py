@@ -31,6 +31,7 @@ from sacflow.anderson import AndersonMixer
 
 __all__ = [
     "Evaluation",
+    "difference_jacobian",
     "FixedPointError",
     "FixedPointResult",
     "NewtonSettings",
@@ -187,6 +188,31 @@ def solve_fixed_point(
         sweeps += 1
         log.debug("%s sweep %d: residual %.3e", label, iteration, ev.residual)
     raise FixedPointError(ev.residual, max_iterations)
+
+
+def difference_jacobian(
+    evaluate: Evaluate, x: np.ndarray, ev: Evaluation, relative_step: float, size: float
+) -> Any:
+    """``I − ∂G/∂x`` at ``x`` by directional finite differences of ``G`` (Jacobian-free).
+
+    ``J v = v − (G(x + εv) − G(x)) / ε`` with ``ε = relative_step · size / max|v|``, ``size``
+    the scale of ``x`` (Knoll & Keyes, J. Comput. Phys. 193 (2004) 357): one evaluation of
+    ``G`` per product, every coupling inside ``G`` included. Returns a
+    ``scipy.sparse.linalg.LinearOperator`` on flat vectors (a :data:`Jacobian`).
+    """
+    from scipy.sparse.linalg import LinearOperator  # only when a step stalls
+
+    shape, n = x.shape, x.size
+
+    def matvec(v: np.ndarray) -> np.ndarray:
+        v = v.reshape(shape)
+        size_v = float(np.abs(v).max())
+        if size_v == 0.0:
+            return np.zeros(n)
+        eps = relative_step * size / size_v
+        return (v - (evaluate(x + eps * v).gx - ev.gx) / eps).ravel()
+
+    return LinearOperator((n, n), matvec=matvec, dtype=float)
 
 
 def _merit(x: np.ndarray, ev: Evaluation) -> float:

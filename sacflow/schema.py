@@ -919,15 +919,18 @@ class Case(Model):
         return self
 
     def _check_track(self) -> None:
-        """Check that the body grid, which covers every load position, stays within MAX_CELLS."""
+        """Check that the body grid, which covers every load position, stays within MAX_CELLS.
+
+        The positions are those :func:`sacflow.layout.plan_steps` gives at the segments' ends
+        (a roll's direction is normalised by its model; passes stay on the same track).
+        """
         cell = self.cell_size()
         position = [0.0, 0.0]
         low, high = list(position), list(position)
         for i, seg in enumerate(self.load_path):
             field = f"load_path.{i}.at"
             if isinstance(seg, Roll):
-                norm = math.hypot(*seg.direction) or 1.0
-                position = [x + seg.distance * d / norm
+                position = [x + seg.distance * d
                             for x, d in zip(position, seg.direction, strict=True)]
                 field = f"load_path.{i}.distance"
             elif (at := getattr(seg, "at", None)) is not None:

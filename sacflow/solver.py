@@ -51,7 +51,12 @@ from sacflow.kernels.shear import traction_stress
 from sacflow.kernels.surface import rectangle_displacement, rectangle_stress
 from sacflow.kinematic import KinematicTangent, kinematic_from_schema, kinematic_return
 from sacflow.layout import StepPlan, auto_depth, body_grid, plan_steps
-from sacflow.nonlinear import Evaluation, FixedPointError, solve_fixed_point
+from sacflow.nonlinear import (
+    Evaluation,
+    FixedPointError,
+    difference_jacobian,
+    solve_fixed_point,
+)
 from sacflow.plasticity import (
     Elastic,
     ReturnTangent,
@@ -485,7 +490,8 @@ class Simulation:
         def jacobian(x: np.ndarray, ev: Evaluation) -> LinearOperator:
             """``I − T (A + 2μ)``: ``T`` the return's algorithmic tangent, ``A`` residual stress."""
             if coupled:
-                return difference_jacobian(x, ev)
+                return difference_jacobian(evaluate, x, ev, FD_STEP,
+                                           max(float(np.abs(x).max()), strain_scale))
             trial, ret = ev.data
             tangent = self._tangent(trial, ret, eqps, depth)
 
@@ -494,20 +500,6 @@ class Simulation:
                 applications += 1
                 v = v.reshape(shape)
                 return (v - tangent.apply(self._eigen.residual_stress(v) + 2.0 * mu * v)).ravel()
-
-            return LinearOperator((n, n), matvec=matvec, dtype=float)
-
-        def difference_jacobian(x: np.ndarray, ev: Evaluation) -> LinearOperator:
-            """``v − (G(x + εv) − G(x)) / ε``: the pressure's response to ``x`` included."""
-            size_x = max(float(np.abs(x).max()), strain_scale)
-
-            def matvec(v: np.ndarray) -> np.ndarray:
-                v = v.reshape(shape)
-                size_v = float(np.abs(v).max())
-                if size_v == 0.0:
-                    return np.zeros(n)
-                eps = FD_STEP * size_x / size_v
-                return (v - (evaluate(x + eps * v).gx - ev.gx) / eps).ravel()
 
             return LinearOperator((n, n), matvec=matvec, dtype=float)
 

@@ -12,6 +12,7 @@ from sacflow.nonlinear import (
     FixedPointError,
     NewtonSettings,
     _newton_step,
+    difference_jacobian,
     solve_fixed_point,
 )
 
@@ -185,3 +186,16 @@ def test_the_iteration_limit_raises_with_the_last_residual():
     with pytest.raises(FixedPointError, match="after 10 iterations") as err:
         solve_fixed_point(evaluate, np.zeros_like(exact), below_tol, max_iterations=10)
     assert err.value.iterations == 10 and 0 < err.value.residual < 1
+
+
+def test_the_difference_jacobian_of_a_linear_map_is_exact():
+    """G(x) = A x + b: the directional differences give I − A (to round-off over ε)."""
+    evaluate, _, _ = linear_problem(n=12, radius=0.9, seed=3)
+    rng = np.random.default_rng(4)
+    x = rng.standard_normal(12)
+    ev = evaluate(x)
+    jac = difference_jacobian(evaluate, x, ev, 1e-6, float(np.abs(x).max()))
+    a = np.column_stack([evaluate(e).gx - evaluate(np.zeros(12)).gx for e in np.eye(12)])
+    v = rng.standard_normal(12)
+    assert_allclose(jac.matvec(v), v - a @ v, rtol=0, atol=1e-6 * np.abs(v).max())
+    assert_allclose(jac.matvec(np.zeros(12)), 0.0)
