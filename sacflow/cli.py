@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+import time
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -45,7 +46,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 #: Commands that compute (or check a case for computing): the SACFLOW_* variables are read
 #: before they start.
-_ENVIRONMENT_COMMANDS = ("run", "campaign", "validate")
+_ENVIRONMENT_COMMANDS = ("run", "campaign", "validate", "cache")
 
 
 def _check_before_work(args: argparse.Namespace) -> None:
@@ -110,6 +111,15 @@ def _parser() -> argparse.ArgumentParser:
     info.set_defaults(handler=_info)
 
     add_compare_command(commands)  # sacflow compare STAGE RUN.nc ... (sacflow.compare)
+
+    cache = commands.add_parser(
+        "cache", help="the kernel cache: what it holds (info) or empty it (clear)",
+        description="Kernel spectra of the grids already set up, kept on disk so that the "
+                    "next run on the same grid starts at once (sacflow.kernel_cache). "
+                    "SACFLOW_CACHE_DIR moves it (or 'off'), SACFLOW_CACHE_MAX_BYTES limits it.")
+    cache.add_argument("action", choices=("info", "clear"), help="info (default) or clear",
+                       nargs="?", default="info")
+    cache.set_defaults(handler=_cache)
 
     schema = commands.add_parser("schema", help="print the JSON schema of a case")
     schema.add_argument(
@@ -209,6 +219,30 @@ def _info(args: argparse.Namespace) -> int:
         if not (info.complete or info.parts):
             status = EXIT_RUN_FAILED
     return status
+
+
+def _cache(args: argparse.Namespace) -> int:
+    from sacflow.kernel_cache import cache_directory, clear_cache, list_entries, max_bytes
+    from sacflow.memory import format_bytes
+
+    root = cache_directory()
+    if root is None:
+        print("kernel cache: off (SACFLOW_CACHE_DIR)")
+        return 0
+    if args.action == "clear":
+        count, nbytes = clear_cache(root)
+        print(f"kernel cache {root}: removed {count} entries, {format_bytes(nbytes)}")
+        return 0
+    entries = list_entries(root)
+    total = sum(entry.nbytes for entry in entries)
+    print(f"kernel cache {root}: {len(entries)} entries, {format_bytes(total)} "
+          f"(limit {format_bytes(max_bytes())}, least recently used removed first)")
+    for entry in reversed(entries):  # most recently used first
+        shape = entry.parameters.get("shape")
+        grid = " × ".join(str(n) for n in shape) if shape else "?"
+        print(f"  {entry.path.name}: {entry.kind}, {grid} cuboids, {format_bytes(entry.nbytes)}, "
+              f"last used {time.strftime('%Y-%m-%d %H:%M', time.localtime(entry.last_used))}")
+    return 0
 
 
 def _schema(args: argparse.Namespace) -> int:

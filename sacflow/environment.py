@@ -1,6 +1,6 @@
 """The ``SACFLOW_*`` environment variables: one reader each, every bad value a clear message.
 
-sacflow reads two variables (both optional; unset or empty means the default):
+sacflow reads four variables (all optional; unset or empty means the default):
 
 ``SACFLOW_FFT_THREADS``
     Threads of the FFTs and of the eigenstrain operators' spectral products: a whole number
@@ -9,6 +9,12 @@ sacflow reads two variables (both optional; unset or empty means the default):
 ``SACFLOW_FFTW_PLANNER``
     FFTW planner rigour: ``estimate`` or ``measure`` (case-insensitive; default: measured plans
     for large transforms, estimated ones for small transforms).
+``SACFLOW_CACHE_DIR``
+    Directory of the kernel cache (:mod:`sacflow.kernel_cache`), or ``off`` to run without it
+    (default: ``$XDG_CACHE_HOME/sacflow/kernels``, ``~/.cache/sacflow/kernels``).
+``SACFLOW_CACHE_MAX_BYTES``
+    Size limit of the kernel cache: bytes, or a number with a K, M, G or T suffix (``20G``);
+    default 16G. The least recently used entries go first.
 
 A value that is not one of these raises :class:`EnvironmentVariableError` (a
 :class:`~sacflow.errors.ConfigError`) naming the variable, the value found and the fix, so that
@@ -25,9 +31,13 @@ import re
 from sacflow.errors import EnvironmentVariableError
 
 __all__ = [
+    "CACHE_DIR_ENV",
+    "CACHE_MAX_BYTES_ENV",
     "FFTW_PLANNER_ENV",
     "FFT_THREADS_ENV",
     "PLANNER_CHOICES",
+    "cache_dir_from_env",
+    "cache_max_bytes_from_env",
     "check_environment",
     "fft_threads_from_env",
     "fftw_planner_from_env",
@@ -37,6 +47,13 @@ __all__ = [
 FFT_THREADS_ENV = "SACFLOW_FFT_THREADS"
 #: Variable forcing the FFTW planner rigour.
 FFTW_PLANNER_ENV = "SACFLOW_FFTW_PLANNER"
+#: Variables of the kernel cache: its directory (or "off") and its size limit.
+CACHE_DIR_ENV = "SACFLOW_CACHE_DIR"
+CACHE_MAX_BYTES_ENV = "SACFLOW_CACHE_MAX_BYTES"
+#: Values of :data:`CACHE_DIR_ENV` that switch the cache off (lower case).
+CACHE_OFF: tuple[str, ...] = ("off", "none", "0", "false")
+_SIZE = re.compile(r"([0-9]+(?:\.[0-9]*)?)\s*([KMGT]?)I?B?", re.IGNORECASE)
+_SIZE_UNITS = {"": 1, "K": 1 << 10, "M": 1 << 20, "G": 1 << 30, "T": 1 << 40}
 #: Accepted values of :data:`FFTW_PLANNER_ENV` (lower case).
 PLANNER_CHOICES: tuple[str, ...] = ("estimate", "measure")
 _WHOLE_NUMBER = re.compile(r"[0-9]+")
@@ -89,7 +106,34 @@ def fftw_planner_from_env() -> str | None:
     return value.lower()
 
 
+def cache_dir_from_env() -> str | None:
+    """``SACFLOW_CACHE_DIR`` as given (``"off"`` and the like included), or None when unset."""
+    return _value(CACHE_DIR_ENV)
+
+
+def cache_max_bytes_from_env() -> int | None:
+    """``SACFLOW_CACHE_MAX_BYTES`` in bytes (``20G``, ``500M``, ``1048576``), or None if unset.
+
+    Raises
+    ------
+    EnvironmentVariableError
+        For anything but a non-negative size with an optional K, M, G or T suffix.
+    """
+    value = _value(CACHE_MAX_BYTES_ENV)
+    if value is None:
+        return None
+    match = _SIZE.fullmatch(value.strip())
+    if match is None:
+        raise EnvironmentVariableError(
+            f"environment variable {CACHE_MAX_BYTES_ENV}={value!r} is not a size; set it to "
+            f"bytes or a number with a K, M, G or T suffix (e.g. 20G), or unset it for the "
+            f"default (16G)"
+        )
+    return int(float(match.group(1)) * _SIZE_UNITS[match.group(2).upper()])
+
+
 def check_environment() -> None:
     """Read every ``SACFLOW_*`` variable once; raise on the first bad value (see module doc)."""
     fft_threads_from_env()
     fftw_planner_from_env()
+    cache_max_bytes_from_env()

@@ -11,8 +11,8 @@ from the shapes of the arrays the solver allocates (:class:`sacflow.solver.Simul
   zero-padded body grid, and while it is built the kernel coefficients on that grid;
 * for a plastic body, the eigenstrain operator (:class:`~sacflow.kernels.eigenstrain.
   HalfSpaceEigenstrain`): its persistent spectra and buffers
-  (:func:`~sacflow.kernels.eigenstrain.kernel_bytes`) and the transient of its set-up (the
-  spectra of the pair kernels kept until their transposes are checked);
+  (:func:`~sacflow.kernels.eigenstrain.operator_bytes`) and the transient of its set-up
+  (:func:`~sacflow.kernels.eigenstrain.setup_bytes`);
 * the solver state (plastic strain, residual stress), the working arrays of one increment's
   fixed point, the Anderson history (:mod:`sacflow.anderson`) and the GMRES basis of the
   Newton–Krylov fallback;
@@ -86,11 +86,6 @@ STATE_SURFACES = 9
 #: States alive at once: the one the runner holds while the solver makes the next (or while
 #: the store consolidates the run, reading one stored step at a time).
 STATES_ALIVE = 2
-#: Transient of the eigenstrain operator's set-up above its persistent arrays, in complex
-#: lateral planes per depth frequency: the pair-kernel spectra kept until their transposes are
-#: checked, the closed form's field, the layer kernels before their depth transform (measured:
-#: 8.5 for 64 × 64 × 24 cuboids, peak of tracemalloc during the set-up).
-EIGEN_SETUP_PLANES = 10
 #: Where Linux says how much memory can be given to a process without swapping.
 MEMINFO = Path("/proc/meminfo")
 #: The memory limit and use of this process's cgroup (v2), when it has one.
@@ -184,22 +179,20 @@ def _eigenstrain(grid: BodyGrid) -> tuple[MemoryItem, MemoryItem]:
     """Size the eigenstrain operator's persistent spectra and buffers, and its set-up transient.
 
     Persistent (:class:`~sacflow.kernels.eigenstrain.HalfSpaceEigenstrain`), per depth
-    frequency: the 21 real pair spectra (10.5 complex planes), the 18 complex planes of the
-    surface and correction kernels, the two (6, L1, L2) real and complex transform buffers.
+    frequency: the 21 pair spectra and the 18 surface and correction spectra, all real and on
+    half the lateral rows, and the one transform buffer, (6, L1, L2) real and its spectrum
+    (:func:`~sacflow.kernels.eigenstrain.operator_bytes`).
     """
-    from sacflow.kernels.eigenstrain import _padded
+    from sacflow.kernels.eigenstrain import _padded, operator_bytes, setup_bytes
 
     shape = (*grid.body, grid.nz)
     l1, l2, n = _padded(shape)
-    plane, real_plane = COMPLEX * l1 * (l2 // 2 + 1), FLOAT * l1 * l2
-    persistent = (n + 1) * ((10.5 + 18 + 2 * COMPONENTS) * plane
-                            + 2 * COMPONENTS * real_plane)
     operator = MemoryItem(
-        "eigenstrain operator", int(persistent),
+        "eigenstrain operator", operator_bytes(shape),
         f"residual stress/displacement spectra of {shape[0]} × {shape[1]} × {shape[2]} cuboids "
         f"({n + 1} depth frequencies of {l1} × {l2})",
     )
-    setup = MemoryItem("eigenstrain set-up", (n + 1) * EIGEN_SETUP_PLANES * plane,
+    setup = MemoryItem("eigenstrain set-up", setup_bytes(shape),
                        "kernel fields and spectra while the operator is built")
     return operator, setup
 

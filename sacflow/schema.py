@@ -86,6 +86,10 @@ NOT_IN_IDENTITY: tuple[str, ...] = (
 #: Optional tables (dotted paths) added after runs were stored: left out of the identity when
 #: absent, so the case_id of a case without them is the one it had before they existed.
 OPTIONAL_TABLES: tuple[str, ...] = ("friction", "body.hardening.kinematic")
+#: Options added after runs were stored, left out of the identity at their default value (the
+#: case_id of a case that does not set them is the one it had before they existed).
+DEFAULTS_LEFT_OUT: dict[str, Any] = {"output.volume_precision": "float64",
+                                     "output.every_step": []}
 #: Load-path segment options added after runs were stored, left out of the identity when unset.
 OPTIONAL_SEGMENT_KEYS: tuple[str, ...] = ("passes", "between", "lift_increments")
 
@@ -113,6 +117,10 @@ if TYPE_CHECKING:
     FieldName = str  # a Literal built at run time from the field tuples (pydantic checks it)
 else:
     FieldName = Literal[SCALAR_FIELDS + SURFACE_FIELDS + VOLUME_FIELDS]
+if TYPE_CHECKING:
+    VolumeFieldName = str
+else:
+    VolumeFieldName = Literal[VOLUME_FIELDS]
 
 
 def field_error(field: str, message: str) -> PydanticCustomError:
@@ -122,6 +130,16 @@ def field_error(field: str, message: str) -> PydanticCustomError:
     error location. ``message`` must not contain braces.
     """
     return PydanticCustomError(FIELD_ERROR, message, {"field": field})
+
+
+def _drop(data: dict[str, Any], dotted: str, when: Any) -> None:
+    """Delete the entry at the dotted path of nested dicts ``data`` if present and ``when(it)``."""
+    *parents, leaf = dotted.split(".")
+    table: Any = data
+    for key in parents:
+        table = table.get(key) if isinstance(table, dict) else None
+    if isinstance(table, dict) and leaf in table and when(table[leaf]):
+        del table[leaf]
 
 
 def _strictly_increasing(values: tuple[float, ...]) -> bool:
@@ -705,6 +723,26 @@ class Output(Model):
     compression: int = Field(
         1, ge=0, le=9, description="zlib compression level of the run file (lossless; 0: none)"
     )
+    volume_precision: Literal["float64", "float32"] = Field(
+        "float64",
+        description="number type of the stored volume fields: float32 halves their size and "
+        "rounds each value to 6e-8 of itself (2^-24); the solver always runs in float64 and an "
+        "interrupted run resumes exactly",
+    )
+    every_step: tuple[VolumeFieldName, ...] = Field(
+        (),
+        description="volume fields stored at every step even when volume_every > 1 (e.g. "
+        "['equivalent_plastic_strain'] to follow the plastic zone, the stress only every k)",
+    )
+
+    @model_validator(mode="after")
+    def _every_step_is_stored(self) -> Output:
+        missing = [name for name in self.every_step
+                   if self.fields is not None and name not in self.fields]
+        if missing:
+            raise field_error("every_step", f"{', '.join(missing)} not among output.fields: "
+                              "add them there or remove them from every_step")
+        return self
 
 
 class InitialState(Model):
@@ -778,22 +816,15 @@ class Case(Model):
         """
         data = json.loads(self.model_dump_json())
         for dotted in NOT_IN_IDENTITY:
-            *parents, leaf = dotted.split(".")
-            table = data
-            for key in parents:
-                table = table[key]
-            table.pop(leaf, None)
+            _drop(data, dotted, lambda value: True)
         for segment in data.get("load_path", ()):  # options added later, absent when unset
             for key in OPTIONAL_SEGMENT_KEYS:
                 if segment.get(key, ...) is None:
                     del segment[key]
         for dotted in OPTIONAL_TABLES:  # absent: the id of a case written before they existed
-            *parents, leaf = dotted.split(".")
-            table = data
-            for key in parents:
-                table = table.get(key) if isinstance(table, dict) else None
-            if isinstance(table, dict) and table.get(leaf, ...) is None:
-                del table[leaf]
+            _drop(data, dotted, lambda value: value is None)
+        for dotted, default in DEFAULTS_LEFT_OUT.items():  # the same, for options at default
+            _drop(data, dotted, lambda value, default=default: value == default)
         if isinstance(self.surface, Measured) and (digest := _file_digest(self.surface.path)):
             # the heights are what count: the same file moved keeps the id, an edited one not
             data["surface"]["path"] = f"sha256:{digest}"

@@ -29,7 +29,7 @@ from __future__ import annotations
 import logging
 import math
 import warnings
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
@@ -48,7 +48,7 @@ from sacflow.initial import (
 )
 from sacflow.kernels.fft import Convolution
 from sacflow.kernels.shear import traction_stress
-from sacflow.kernels.surface import rectangle_displacement, rectangle_stress
+from sacflow.kernels.surface import rectangle_displacement, rectangle_stress_grid
 from sacflow.kinematic import KinematicTangent, kinematic_from_schema, kinematic_return
 from sacflow.layout import StepPlan, auto_depth, body_grid, plan_steps
 from sacflow.nonlinear import (
@@ -65,7 +65,7 @@ from sacflow.plasticity import (
     von_mises,
 )
 from sacflow.reference import composite_modulus
-from sacflow.state import GridCoords, MeasuredSurface, State
+from sacflow.state import VOLUME_FIELDS, GridCoords, MeasuredSurface, State
 from sacflow.threads import single_threaded_blas
 
 if TYPE_CHECKING:
@@ -240,9 +240,10 @@ class Simulation:
 
         def stresses(d1, d2):
             # One layer at a time: the closed form's temporaries stay small (in cache).
+            # d1, d2: offsets along x1 and x2 (a sparse grid), folded onto the corner lattice.
             out = np.empty((self.nz, 6, *np.broadcast_shapes(d1.shape, d2.shape)))
             for k, depth in enumerate(z):
-                s = rectangle_stress(d1 * dx1, d2 * dx2, depth, h1, h2, nu)
+                s = rectangle_stress_grid(d1.ravel() * dx1, d2.ravel() * dx2, depth, h1, h2, nu)
                 if traction is not None:  # the traction μ p d rides on the pressure
                     s += traction_stress(d1 * dx1, d2 * dx2, depth, h1, h2, nu, traction)
                 out[k] = np.moveaxis(s, -1, 0)
@@ -275,13 +276,20 @@ class Simulation:
         """Stress [Pa] on the body grid, (nbx, nby, nz, 6), of the window pressure at ``sl``."""
         embedded = np.zeros(self.body_shape)
         embedded[sl] = pressure
-        out = self.pressure_stress_op(embedded[None])  # (6 nz, nbx, nby)
+        return self._pressure_stress_op_apply(embedded)
+
+    def _pressure_stress_op_apply(self, pressure: np.ndarray) -> np.ndarray:
+        """Stress [Pa] (nbx, nby, nz, 6) of a pressure given on the whole body grid."""
+        out = self.pressure_stress_op(pressure[None])  # (6 nz, nbx, nby)
         out = out.reshape(self.nz, 6, *self.body_shape)
         return np.moveaxis(out, (0, 1), (2, 3))
 
     def _load_stress(self, pressure: np.ndarray, sl) -> np.ndarray:
         """Stress that does not come from this run's plastic strain: pressure + initial [Pa]."""
-        stress = self._pressure_stress(pressure, sl)
+        return self._with_initial_stress(self._pressure_stress(pressure, sl))
+
+    def _with_initial_stress(self, stress: np.ndarray) -> np.ndarray:
+        """``stress`` plus the initial stress of a chained case, if any (in place)."""
         if self._initial_stress is not None:
             stress += self._initial_stress
         return stress
@@ -365,20 +373,33 @@ class Simulation:
         u_floor = max(float(np.abs(u_old).max()), _TINY)  # a hold step moves u by round-off
         last: dict[str, Any] = {"u": None, "result": None, "du": np.inf}
 
-        def residual_fields(x):
-            if not x.any():  # the fields of εp_old are known: no application
-                return self.residual_stress, u_old, 0
-            stress, u = self._eigen.residual_stress(self.plastic_strain + x, with_displacement=True)
-            return stress, u, 1
+        # Without friction the eigenstrain operator adds the contact pressure's stress in the
+        # transforms of the residual stress (its traction correction applies Love's stresses of
+        # a surface pressure): one application per evaluation, no pressure-stress convolution.
+        fused = self.traction is None
 
         def sigma(x):
-            stress, u, apps = residual_fields(x)
-            last["fields"] = (stress, u)
+            apps = 0 if not x.any() else 1  # the fields of εp_old are known: no application
+            stress, u = self.residual_stress, u_old
+            if apps and fused:
+                traction, surface_u = self._eigen.surface_fields(self.plastic_strain + x)
+                u = np.asarray(surface_u)
+            elif apps:
+                stress, u = self._eigen.residual_stress(self.plastic_strain + x,
+                                                        with_displacement=True)
             result = solve(u)
             if last["u"] is not None:
                 scale = max(float(np.abs(u - u_old).max()), u_floor)
                 last["du"] = float(np.abs(u - last["u"]).max()) / scale
             last["u"], last["result"] = u, result
+            if apps and fused:
+                pressure = np.zeros(self.body_shape)
+                pressure[sl] = result.pressure
+                total = self._eigen.stress(traction, pressure)
+                # the residual stress alone, if this is the last evaluation: made at the end
+                last["fields"] = (total, u, pressure)
+                return self._with_initial_stress(total), apps
+            last["fields"] = (stress, u, None)
             return self._load_stress(result.pressure, sl) + stress, apps
 
         def converged(res: float) -> bool:
@@ -395,7 +416,10 @@ class Simulation:
                                        iterations=exc.iterations) from None
             raise
         coupling = 0.0 if not np.isfinite(last["du"]) else last["du"]
-        return last["result"], (dx, dp), applications, last["fields"], (res, coupling)
+        stress, u, pressure = last["fields"]
+        if pressure is not None:  # fused: take the contact pressure's stress out again
+            stress = stress - self._pressure_stress_op_apply(pressure)
+        return last["result"], (dx, dp), applications, (stress, u), (res, coupling)
 
     def _nested(self, solve, sl, step: int):
         """Run the seed's nested loops (Fig. 5): contact ↔ plastic fixed point at fixed pressure.
@@ -616,6 +640,8 @@ class Simulation:
         pass_end = plan.pass_end and self.multi_pass  # repeated rolling: every pass's end
         if step % every == every - 1 or step == self.total_steps - 1 or pass_end:
             volume = self._volume_fields(inc.contact, inc.window)
+        elif self.case.output.every_step:  # these at every step, the others every k
+            volume = self._volume_fields(inc.contact, inc.window, self.case.output.every_step)
         return self._state(step, plan, inc, volume, substeps)
 
     def _solve_cutting_back(
@@ -688,24 +714,29 @@ class Simulation:
                 "increase grid.half_width", RuntimeWarning, stacklevel=2,
             )
 
-    def _volume_fields(self, result: ContactResult, sl) -> dict[str, np.ndarray]:
-        stress = self._load_stress(result.pressure, sl) + self.residual_stress
-        residual = self.residual_stress.copy()
-        if self._initial_stress is not None:
-            residual += self._initial_stress
-        if self.plastic:
-            yield_stress = self.law.yield_stress(self.eqps, self.coords.x3)
-        else:
-            yield_stress = np.full(self.eqps.shape, np.inf)
-        return {
-            "plastic_strain": self.plastic_strain.copy(),
-            "equivalent_plastic_strain": self.eqps.copy(),
-            "residual_stress": residual,
-            "stress": stress,
-            "von_mises": von_mises(stress),
-            "yield_stress": np.asarray(yield_stress, dtype=float),
-            **({} if self.backstress is None else {"backstress": self.backstress.copy()}),
-        }
+    def _volume_fields(self, result: ContactResult, sl,
+                       names: Sequence[str] | None = None) -> dict[str, np.ndarray]:
+        """Volume fields of the state (all, or those in ``names``: only what they need)."""
+        wanted = set(VOLUME_FIELDS if names is None else names)
+        out: dict[str, np.ndarray] = {}
+        if wanted & {"stress", "von_mises"}:
+            stress = self._load_stress(result.pressure, sl) + self.residual_stress
+            out["stress"] = stress
+            out["von_mises"] = von_mises(stress)
+        if "residual_stress" in wanted:
+            residual = self.residual_stress.copy()
+            if self._initial_stress is not None:
+                residual += self._initial_stress
+            out["residual_stress"] = residual
+        if "yield_stress" in wanted:
+            yield_stress = (self.law.yield_stress(self.eqps, self.coords.x3) if self.plastic
+                            else np.full(self.eqps.shape, np.inf))
+            out["yield_stress"] = np.asarray(yield_stress, dtype=float)
+        out["plastic_strain"] = self.plastic_strain.copy()
+        out["equivalent_plastic_strain"] = self.eqps.copy()
+        if self.backstress is not None:
+            out["backstress"] = self.backstress.copy()
+        return {name: array for name, array in out.items() if name in wanted}
 
     def _shear_traction(self, pressure: np.ndarray) -> dict[str, np.ndarray]:
         """``{"shear_traction": μ p d}`` (nx1, nx2, 2) [Pa] with a ``[friction]`` table, else {}."""

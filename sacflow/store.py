@@ -62,6 +62,7 @@ from sacflow.state import (
     OPTIONAL_RESTART_FIELDS,
     RESTART_FIELDS,
     TRACTION_COMPONENTS,
+    VOLUME_FIELDS,
     GridCoords,
     MeasuredSurface,
     State,
@@ -245,6 +246,9 @@ class RunWriter:
         self.coords = coords
         self.names = _selected(fields)
         self.compression = compression
+        # Volume fields of the consolidated file in float32 when the case asks (parts, the
+        # restart state, stay float64: an interrupted run resumes exactly).
+        self.volume_dtype = "f4" if case.output.volume_precision == "float32" else "f8"
         self._closed = False
         info = info if info is not None else run_info(self.path)
         kept = _prepare(info, case, keep_steps, overwrite)
@@ -292,7 +296,8 @@ class RunWriter:
             return
         self._closed = True
         attrs = {**self.attrs, "complete": 1}
-        with _atomic(self.path) as tmp, _write_through(), self._create(tmp, attrs) as nc:
+        with (_atomic(self.path) as tmp, _write_through(),
+              self._create(tmp, attrs, volume_dtype=self.volume_dtype) as nc):
             _copy_parts(self._stored, nc, self.names)
         shutil.rmtree(self.parts, ignore_errors=True)
 
@@ -316,10 +321,10 @@ class RunWriter:
         else:
             self.abort()
 
-    def _create(self, path: Path, attrs: Mapping[str, Any],
-                compression: int | None = None) -> netCDF4.Dataset:
+    def _create(self, path: Path, attrs: Mapping[str, Any], compression: int | None = None,
+                volume_dtype: str = "f8") -> netCDF4.Dataset:
         level = self.compression if compression is None else compression
-        return _create(path, self.coords, self.names, attrs, level)
+        return _create(path, self.coords, self.names, attrs, level, volume_dtype)
 
 
 def parts_dir(path: str | Path) -> Path:
@@ -505,8 +510,12 @@ def _create(
     names: list[str],
     attrs: Mapping[str, Any],
     compression: int,
+    volume_dtype: str = "f8",
 ) -> netCDF4.Dataset:
-    """Create an empty run file laid out as in :data:`VARIABLES` (NaN where never written)."""
+    """Create an empty run file laid out as in :data:`VARIABLES` (NaN where never written).
+
+    ``volume_dtype`` ("f8" or "f4") is the type of the volume fields (``output.volume_precision``).
+    """
     nc = netCDF4.Dataset(path, "w", format="NETCDF4")
     nc.set_auto_mask(False)
     nc.setncatts(dict(attrs))
@@ -520,13 +529,16 @@ def _create(
     _add_coordinates(nc, coords, used)
     for name in names:
         spec = VARIABLES[name]
+        dtype = "i1" if spec.dtype == "bool" else spec.dtype
+        if name in VOLUME_FIELDS:
+            dtype = volume_dtype
         var = nc.createVariable(
             name,
-            "i1" if spec.dtype == "bool" else spec.dtype,
+            dtype,
             spec.dims,
             zlib=compression > 0,
             complevel=_zlib_level(compression),
-            fill_value=np.nan if spec.dtype == "f8" else None,
+            fill_value=np.array(np.nan, dtype) if dtype in ("f8", "f4") else None,
             chunksizes=(1, *(sizes[d] for d in spec.dims[1:])) if len(spec.dims) > 1 else None,
         )
         var.setncatts({"units": spec.units, "long_name": spec.long_name})

@@ -52,3 +52,25 @@ def test_linear_fixed_point_converges_like_gmres():
     for _ in range(n + 2):
         y = M @ y + b
     assert np.abs(y - exact).max() > 1e-2 * np.abs(exact).max()
+
+
+def test_sparse_vectors_with_a_growing_support_mix_as_dense_ones():
+    """Vectors zero outside a support that grows step by step (a spreading plastic zone): the
+    history kept on the support gives the dense least-squares iterates, zero outside it."""
+    rng = np.random.default_rng(5)
+    depth, n = 3, 400
+    mixer = AndersonMixer(depth, mixing=0.8)
+    xs, fs = [], []
+    for k in range(8):
+        x, gx = np.zeros(n), np.zeros(n)
+        live = rng.choice(20 + 30 * k, size=15, replace=False)  # within a growing prefix
+        x[live] = rng.standard_normal(live.size)
+        gx[live[:10]] = rng.standard_normal(10)
+        out = mixer.step(x, gx)
+        xs.append(x)
+        fs.append(gx - x)
+        keep = min(k, depth) + 1
+        expected = x + 0.8 * (gx - x) if k == 0 else reference_step(xs[-keep:], fs[-keep:], 0.8)
+        assert_allclose(out, expected, rtol=1e-9, atol=1e-9)
+        assert not out[20 + 30 * k:].any()  # nothing where no vector ever was nonzero
+    assert mixer._support.size < n

@@ -5,8 +5,9 @@ import pytest
 import scipy.fft
 from numpy.testing import assert_allclose
 
+from sacflow.kernels.cuboid import PARITY
 from sacflow.kernels.fft import RealFFT, RealToReal, next_regular
-from sacflow.kernels.pair_products import PAIRS, pair_products
+from sacflow.kernels.pair_products import PAIRS, depth_sums, pair_products
 
 
 @pytest.mark.parametrize(
@@ -59,26 +60,55 @@ def test_real_to_real_in_place_on_strided_lines_equals_scipy(kind, function, kin
     assert_allclose(buf, outside, rtol=0, atol=0)
 
 
+def mirrored(half_rows: np.ndarray, sign: float, axis: int, L1: int) -> np.ndarray:
+    """Rows 0 … L1 // 2 along ``axis`` completed to L1 rows: row L1 − k is ``sign`` × row k."""
+    n = half_rows.shape[axis]
+    rows = np.arange(L1)
+    source = np.where(rows < n, rows, L1 - rows)
+    factor = np.where(rows < n, 1.0, sign)
+    shape = [1] * half_rows.ndim
+    shape[axis] = L1
+    return np.take(half_rows, source, axis=axis) * factor.reshape(shape)
+
+
 def test_pair_products_equal_the_dense_six_by_six_products():
     """The compiled loop against the full 6 × 6 matrix built from the 21 stored kernels."""
     rng = np.random.default_rng(4)
     M, L1, L2h = 3, 4, 5
     spec = rng.standard_normal((6, M, L1, L2h)) + 1j * rng.standard_normal((6, M, L1, L2h))
-    kernels = rng.standard_normal((M, L1, L2h, 21))
+    half = L1 // 2 + 1  # rows stored; the others are mirror images with the x1 parities
+    kernels = rng.standard_normal((M, half, L2h, 21))
     inv_weight = 1.0 / np.array([1, 1, 1, 2, 2, 2.0])
-    correction = rng.standard_normal((6, M, L1, L2h)) + 0j
+    correction = rng.standard_normal((6, M, half, L2h))  # 13, 23: imaginary, stored / i
     p_hat = rng.standard_normal((L1, L2h)) + 1j * rng.standard_normal((L1, L2h))
     dense = np.zeros((6, 6, M, L1, L2h), dtype=complex)
     for k, (c, d) in enumerate(PAIRS):
         odd = (c >= 4) != (d >= 4)
-        dense[c, d] = kernels[..., k] * (1j if odd else 1.0)  # stored: row c >= column d
+        full = mirrored(kernels[..., k], PARITY[0, c] * PARITY[0, d], 1, L1)
+        dense[c, d] = full * (1j if odd else 1.0)  # stored: row c >= column d
         dense[d, c] = -dense[c, d] if odd else dense[c, d]
+    correction = np.stack([mirrored(correction[c], PARITY[0, c], 1, L1) for c in range(6)])
+    imaginary = np.array([1, 1, 1, 1, 1j, 1j])[:, None, None, None]
     expected = (np.einsum("cd...,d...->c...", dense, spec) * inv_weight[:, None, None, None]
-                + correction * p_hat)
+                + imaginary * correction * p_hat)
     out = np.zeros_like(spec)
     pair_products(spec, kernels, inv_weight, correction, p_hat, out, 1, M)
     assert_allclose(out[:, 1:], expected[:, 1:], rtol=1e-13, atol=1e-13)
     assert not out[:, 0].any()  # only the planes asked for
+
+
+def test_depth_sums_equal_numpy_contraction():
+    """Surface fields: Σ_d Σ_m spec_d(m) K_qd(m), the 13 and 23 kernels stored divided by i."""
+    rng = np.random.default_rng(5)
+    Q, M, L1, L2h = 2, 3, 5, 5
+    spec = rng.standard_normal((6, M, L1, L2h)) + 1j * rng.standard_normal((6, M, L1, L2h))
+    kernels = rng.standard_normal((Q, 6, M, L1 // 2 + 1, L2h))
+    full = np.stack([mirrored(kernels[:, d], PARITY[0, d], 2, L1) for d in range(6)], axis=1)
+    imaginary = np.array([1, 1, 1, 1, 1j, 1j])[None, :, None, None, None]
+    expected = np.einsum("dmab,qdmab->qab", spec, imaginary * full)
+    out = np.full((Q, L1, L2h), np.nan, dtype=complex)
+    depth_sums(spec, kernels, out)
+    assert_allclose(out, expected, rtol=1e-13, atol=1e-13)
 
 
 def test_pyfftw_is_imported_without_dask_array_and_scipy_fft_which_stay_importable():

@@ -69,6 +69,7 @@ import numpy as np
 
 __all__ = [
     "COMPONENTS",
+    "PARITY",
     "cuboid_stress",
     "cuboid_stress_component",
     "eigenstrain_stress_by_quadrature",
@@ -78,6 +79,10 @@ __all__ = [
 
 #: Tensor index pairs of the 6 components, in the order (11, 22, 33, 12, 13, 23).
 COMPONENTS: tuple[tuple[int, int], ...] = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
+
+#: Sign of each component under the reflection of axis i, ``PARITY[i, c]``: −1 when the axis
+#: occurs an odd number of times in the component (12 and 13 flip with x1, 12 and 23 with x2).
+PARITY = np.array([[(-1.0) ** pair.count(axis) for pair in COMPONENTS] for axis in range(3)])
 
 _MAX_POINTS = 1 << 17  # points per block in the corner sums (bounded temporaries)
 

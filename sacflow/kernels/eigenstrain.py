@@ -68,7 +68,9 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 import scipy.fft
 
-from sacflow.kernels.cuboid import cuboid_stress_component
+from sacflow.kernel_cache import cached_arrays
+from sacflow.kernels.cuboid import PARITY
+from sacflow.kernels.cuboid_lattice import CuboidLattice
 from sacflow.kernels.fft import (
     RealFFT,
     RealToReal,
@@ -77,14 +79,16 @@ from sacflow.kernels.fft import (
     wraparound_offsets,
 )
 from sacflow.kernels.residual_displacement import cuboid_surface_displacement
-from sacflow.kernels.surface import rectangle_stress
+from sacflow.kernels.surface import rectangle_stress_grid
 
 __all__ = [
     "HalfSpaceEigenstrain",
     "eigenstrain_operator",
     "kernel_bytes",
+    "operator_bytes",
     "residual_displacement",
     "residual_stress",
+    "setup_bytes",
 ]
 
 #: Sign of each component under the reflection x3 → −x3 (13 and 23 flip).
@@ -93,73 +97,97 @@ MIRROR_SIGN = np.array([1.0, 1.0, 1.0, 1.0, -1.0, -1.0])
 EVEN, ODD = slice(0, 4), slice(4, 6)
 #: Reciprocity weights of the components (tensor shears count twice in σ : ε).
 WEIGHT = np.array([1.0, 1.0, 1.0, 2.0, 2.0, 2.0])
+#: Version of the kernel spectra's formulas and layout: part of their disk-cache key
+#: (:mod:`sacflow.kernel_cache`); increase it with any change of what the spectra hold.
+KERNEL_VERSION = 3
+#: Bytes of the contiguous blocks in which the pair kernels are transformed along depth.
+_DEPTH_BLOCK_BYTES = 16 << 20
+#: Blocks of that size alive at once in a depth transform (the block, a transform's input
+#: and output, and a slice's copy).
+_DEPTH_TEMPORARIES = 4
 
 
-def _check_transpose(stored: np.ndarray, other: np.ndarray, odd: bool, c: int, d: int) -> None:
-    """Check the weighted kernel of (c, d) against its stored transpose (d, c).
+def _check_reciprocity(fields: np.ndarray) -> None:
+    """Check ``w_c A_cd = w_d A_dc`` on one plane of kernels (Betti's reciprocity).
 
-    Reciprocity (Betti) makes them equal, up to the sign −1 that the depth transforms give the
-    even–odd pairs (:func:`sacflow.kernels.pair_products.pair_products` relies on it). Raises
-    ``RuntimeError`` beyond 1e-9 of their magnitude: a broken kernel, not a user error.
+    ``fields`` (…, 36) holds every column (c, d) row-major. The weighted kernel matrix is
+    symmetric in real space (its spectra then are too, up to the sign −1 that the depth
+    transforms give the even–odd pairs, which :func:`sacflow.kernels.pair_products.pair_products`
+    relies on); a kernel without it raises ``RuntimeError``.
     """
-    sign = -1.0 if odd else 1.0
-    scale = max(float(np.abs(stored).max()), float(np.abs(other).max()), 1e-300)
-    if float(np.abs(other - sign * stored).max()) > 1e-9 * scale:  # pragma: no cover
-        raise RuntimeError(f"eigenstrain kernels ({c}, {d}) and ({d}, {c}) violate reciprocity")
+    weighted = (fields.reshape(*fields.shape[:-1], 6, 6) * WEIGHT[:, None]).reshape(fields.shape)
+    index = np.arange(36).reshape(6, 6)
+    _raise_if_broken(float(np.abs(weighted - weighted[..., index.T.ravel()]).max()),
+                     float(np.abs(weighted).max()), "reciprocity")
 
 
-def _real_part(spectrum: np.ndarray, odd: bool, c: int, d: int) -> np.ndarray:
-    """Return the real part of an even pair's spectrum, the imaginary part of an odd pair's.
+def _raise_if_broken(mismatch: float, scale: float, what: str) -> None:
+    """Raise ``RuntimeError`` when ``mismatch`` exceeds 1e-9 of ``scale``: a broken kernel."""
+    if mismatch > 1e-9 * max(scale, 1e-300):  # pragma: no cover - not a user error
+        raise RuntimeError(f"eigenstrain kernels violate {what} (mismatch {mismatch:.3e} "
+                           f"against values up to {scale:.3e})")
 
-    Their parities make the spectra of even pairs real and those of odd pairs (one odd lateral
-    axis) imaginary; the other part must vanish (to 1e-9), else ``RuntimeError``.
+
+def _check_mirror(spectra: np.ndarray, signs: np.ndarray) -> None:
+    """Check that row ``L1 − k1`` of lateral spectra is ``signs`` times row ``k1``.
+
+    ``spectra`` (L1, L2h, ...) with ``signs`` broadcasting over its trailing axes: the parity
+    in x1 of each kernel, on which the half storage of the spectra rests (pair_products).
     """
-    keep, drop = (spectrum.imag, spectrum.real) if odd else (spectrum.real, spectrum.imag)
-    if float(np.abs(drop).max()) > 1e-9 * max(float(np.abs(keep).max()), 1e-300):
-        raise RuntimeError(  # pragma: no cover - a broken kernel, not a user error
-            f"eigenstrain kernel ({c}, {d}) is not {'imaginary' if odd else 'real'} as its "
-            "parities require")
-    return keep
+    L1 = spectra.shape[0]
+    rows = np.arange(1, (L1 + 1) // 2)
+    mismatch = spectra[L1 - rows] - signs * spectra[rows]
+    _raise_if_broken(float(np.abs(mismatch).max()), float(np.abs(spectra).max()),
+                     "their parity in x1")
 
 
-def _check_depth_parity(below: np.ndarray, above: np.ndarray, used: np.ndarray, d: int) -> None:
+def _check_depth_parity(below: np.ndarray, above: np.ndarray) -> None:
     """Check ``A_cd(x1, x2, −x3) = s_c s_d A_cd(x1, x2, x3)`` (s: :data:`MIRROR_SIGN`).
 
-    ``below`` and ``above`` are the six stress components of source ``d`` one layer below and
-    above the cuboid. The depth transforms rely on this parity; a kernel without it raises
-    ``RuntimeError``.
+    ``below`` and ``above`` (…, 36) hold every column one layer below and above the cuboid.
+    The depth transforms rely on this parity; a kernel without it raises ``RuntimeError``.
     """
-    expected = np.where(used[..., None], MIRROR_SIGN * MIRROR_SIGN[d] * below, 0.0)
-    scale = max(float(np.abs(below).max()), 1e-300)
-    if float(np.abs(np.where(used[..., None], above, 0.0) - expected).max()) > 1e-9 * scale:
-        raise RuntimeError(  # pragma: no cover - a broken kernel, not a user error
-            f"the cuboid kernel of eigenstrain component {d} lacks its parity in x3"
-        )
+    signs = np.outer(MIRROR_SIGN, MIRROR_SIGN).ravel()
+    _raise_if_broken(float(np.abs(above - signs * below).max()), float(np.abs(below).max()),
+                     "their parity in x3")
 
 
-def _depth_spectrum(lateral: np.ndarray, odd: bool) -> np.ndarray:
-    """Depth transform of a kernel given for depth offsets 0 … N: (N + 1, …) → (N + 1, …).
+def _depth_spectra(kernels: np.ndarray, even: int, scale: np.ndarray,
+                   workers: int = 1) -> None:
+    """Depth transforms, in place, of kernels given for depth offsets 0 … N (axis 0).
 
-    Even kernels: DCT-I over the N + 1 offsets (its period-2N DFT). Odd kernels: DST-I over
-    offsets 1 … N − 1 at depth frequencies 1 … N − 1 (the DFT is −i times it; frequencies 0 and
-    N vanish).
+    The first ``even`` kernels (last axis) are even in x3: DCT-I over the N + 1 offsets (their
+    period-2N DFT). The others are odd: DST-I over offsets 1 … N − 1 at depth frequencies
+    1 … N − 1 (the DFT is −i times it; frequencies 0 and N vanish). Each kernel is then
+    multiplied by its ``scale``. Done in blocks of x1 rows (axis 1), copied out contiguous and
+    back: in the point-major layout a kernel is a strided view, slow to transform on its own.
     """
-    if not odd:
-        return scipy.fft.dct(lateral, type=1, axis=0)
-    out = np.zeros_like(lateral)
-    out[1:-1] = scipy.fft.dst(lateral[1:-1], type=1, axis=0)
+    rows = max(1, _DEPTH_BLOCK_BYTES // max(1, kernels[:, :1].nbytes))
+    for start in range(0, kernels.shape[1], rows):
+        block = np.array(kernels[:, start:start + rows])
+        block[..., :even] = scipy.fft.dct(block[..., :even], type=1, axis=0, workers=workers)
+        block[1:-1, ..., even:] = scipy.fft.dst(block[1:-1, ..., even:], type=1, axis=0,
+                                                workers=workers)
+        block[[0, -1], ..., even:] = 0.0
+        block *= scale
+        kernels[:, start:start + rows] = block
+
+
+def _depth_projection(layers: np.ndarray, N: int, odd: bool, workers: int = 1) -> np.ndarray:
+    """Project layers on the depth basis: ``Σ_j cos`` (even) or ``sin`` (odd) ``(π m (j + ½) / N)``.
+
+    Layers j < n3 along axis 0, depth frequencies m = 0 … N out: half a DCT-II (even) or DST-II
+    (odd, frequencies 1 … N) of the layers zero-padded to N. Times 2 it is the analysis of
+    FFTW's REDFT10/RODFT10; with weights 1, 2, …, 2, 1 and 1/(2N) the synthesis of
+    REDFT01/RODFT01.
+    """
+    out = np.zeros((N + 1, *layers.shape[1:]), dtype=layers.dtype)
+    if odd:
+        out[1:] = scipy.fft.dst(layers, type=2, n=N, axis=0, workers=workers)
+    else:
+        out[:N] = scipy.fft.dct(layers, type=2, n=N, axis=0, workers=workers)
+    out *= 0.5
     return out
-
-
-def _depth_basis(N: int, n3: int, odd: bool) -> np.ndarray:
-    """Return the depth basis: ``cos`` (even) or ``sin`` (odd) of ``π m (j + ½) / N``.
-
-    Depth frequencies m = 0 … N, layers j < n3: DCT-II/DST-II analysis (times 2) and, with
-    weights 1, 2, …, 2, 1 and 1/(2N), DCT-III/DST-III synthesis (FFTW's REDFT10/RODFT10 and
-    REDFT01/RODFT01).
-    """
-    angle = np.pi * np.outer(np.arange(N + 1), np.arange(n3) + 0.5) / N
-    return np.sin(angle) if odd else np.cos(angle)
 
 
 def _padded(shape: Sequence[int]) -> tuple[int, int, int]:
@@ -168,20 +196,39 @@ def _padded(shape: Sequence[int]) -> tuple[int, int, int]:
     return padded_length(n1, n1), padded_length(n2, n2), padded_length(n3, n3 + 1)
 
 
-def kernel_bytes(shape: Sequence[int]) -> int:
-    """Bytes of cached spectra and FFT buffers a :class:`HalfSpaceEigenstrain` of ``shape`` needs.
+def operator_bytes(shape: Sequence[int]) -> int:
+    """Bytes a built :class:`HalfSpaceEigenstrain` of ``shape`` keeps.
 
-    Counts the 21 pair spectra (real) and the 3 × 6 surface and correction spectra (complex, over
-    N + 1 depth frequencies), the two transform buffers (real and complex), and the transient of
-    the set-up (one source's kernel field and transforms).
+    Over the N + 1 depth frequencies: the 21 pair spectra and the 3 × 6 surface and correction
+    spectra, all real and stored for the lateral rows k1 ≤ L1 // 2 (39 arrays of
+    (L1 // 2 + 1) × (L2 // 2 + 1)), and the one transform buffer (6 real L1 × L2 planes and
+    their complex spectra).
+    """
+    L1, L2, N = _padded(shape)
+    stored = 39 * 8 * (L1 // 2 + 1) * (L2 // 2 + 1)
+    buffer = 6 * (8 * L1 * L2 + 16 * L1 * (L2 // 2 + 1))
+    return int((N + 1) * (stored + buffer))
+
+
+def setup_bytes(shape: Sequence[int]) -> int:
+    """Bytes the set-up of a :class:`HalfSpaceEigenstrain` of ``shape`` needs besides them.
+
+    The layer spectra (3 × 6 × n3 complex L1 × (L2 // 2 + 1) planes) are freed before the pair
+    spectra are made: they add what they exceed the pair spectra by. Then the per-plane
+    transform of the pair kernels (21 real planes and spectra) and the blocks of their depth
+    transforms. Measured (tracemalloc): 55 and 135 MB at 64 × 64 × 32 and 96 × 96 × 48 cuboids.
     """
     n1, n2, n3 = shape
     L1, L2, N = _padded(shape)
-    plane = 16 * L1 * (L2 // 2 + 1)  # one complex lateral spectrum
-    real_plane = 8 * L1 * L2
-    persistent = (10.5 + 18 + 12) * (N + 1) * plane + 12 * (N + 1) * real_plane
-    setup = (N + 1) * (7 * real_plane + 3 * plane) + 3 * 6 * n3 * plane
-    return int(persistent + setup)
+    plane = 16 * L1 * (L2 // 2 + 1)
+    pairs = 21 * 8 * (L1 // 2 + 1) * (L2 // 2 + 1) * (N + 1)
+    layers = max(0, 18 * n3 * plane - pairs)
+    return int(layers + 21 * (plane + 8 * L1 * L2) + _DEPTH_TEMPORARIES * _DEPTH_BLOCK_BYTES)
+
+
+def kernel_bytes(shape: Sequence[int]) -> int:
+    """Bytes a :class:`HalfSpaceEigenstrain` of ``shape`` needs at the peak of its set-up."""
+    return operator_bytes(shape) + setup_bytes(shape)
 
 
 def _available_bytes() -> int:
@@ -253,10 +300,10 @@ class HalfSpaceEigenstrain:
         # each layer stays zero), then pruned lateral transforms (see RealFFT). Layout
         # (component, depth, x1, x2); depth frequency m is plane m for the even components and
         # the DST's frequencies 1 … N are planes 1 … N for the odd ones (module notes).
-        self._lateral_in = RealFFT((6, N + 1, L1, L2), 2, threads, in_extent=(n1, n2))
-        self._lateral_out = RealFFT((6, N + 1, L1, L2), 2, threads, out_extent=(n1, n2))
-        lines_in = self._lateral_in.real[:, :, :n1, :n2]
-        lines_out = self._lateral_out.real[:, :, :n1, :n2]
+        # One buffer serves the forward and the inverse: the products overwrite the spectra.
+        self._lateral = RealFFT((6, N + 1, L1, L2), 2, threads, in_extent=(n1, n2),
+                                out_extent=(n1, n2))
+        lines_in = lines_out = self._lateral.real[:, :, :n1, :n2]
         self._depth_forward = (
             RealToReal(lines_in[EVEN, :N], lines_in[EVEN, :N], 1, "FFTW_REDFT10", threads),
             RealToReal(lines_in[ODD, 1:], lines_in[ODD, 1:], 1, "FFTW_RODFT10", threads),
@@ -274,12 +321,27 @@ class HalfSpaceEigenstrain:
         workers = min(self.threads, N + 1)  # contiguous ranges of depth frequencies, one each
         bounds = np.linspace(0, N + 1, workers + 1).round().astype(int)
         self._ranges = [(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
-        self._kernels = self._pair_kernels(threads)
         self._inv_weight = 1.0 / WEIGHT
-        # Surface kernels (traction, displacement) stacked for one pass; traction correction.
-        self._surface, self._correction = self._layer_kernels(threads)
+        self._spectra_of_eps = False  # the buffer holds the spectra surface_fields left
+        # The 21 pair spectra; the surface kernels (traction, displacement) stacked for one
+        # pass; the traction correction. From the disk cache when it has them.
+        spectra = cached_arrays("eigenstrain", self.cache_parameters(),
+                                lambda: self._spectra(threads))
+        self._kernels, self._surface, self._correction = (
+            np.asarray(spectra[name]) for name in ("pairs", "surface", "correction"))
         for arr in (self._kernels, self._surface, self._correction):
             arr.flags.writeable = False
+
+    def cache_parameters(self) -> dict:
+        """Everything that determines the kernel spectra (the key of the disk cache)."""
+        return {"version": KERNEL_VERSION, "shape": list(self.shape),
+                "spacing": list(self.spacing), "E": self.E, "nu": self.nu}
+
+    def _spectra(self, threads: int | None) -> dict[str, np.ndarray]:
+        """Compute the kernel spectra (a cache miss)."""
+        surface, correction = self._layer_kernels(threads)
+        return {"pairs": self._pair_kernels(threads), "surface": surface,
+                "correction": correction}
 
     def _offsets(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Lateral wrap-around offsets (x1, x2) [m] and the mask of the offsets used."""
@@ -295,57 +357,69 @@ class HalfSpaceEigenstrain:
         """Compute 21 stored pair spectra (weighted, normalised), point-major (N+1, L1, L2h, 21).
 
         The infinite-space kernel ``A_cd(x1, x2, o d3)`` is evaluated for depth offsets
-        ``o = 0 … N`` (zero at ``o = N``, which no pair of cells needs), transformed laterally,
-        then along depth by a DCT-I (even pairs) or a DST-I (odd pairs), which is its full
-        period-2N DFT up to the factor −i of odd sequences; ``σ_cd = −1`` for an even output
-        and an odd input collects those factors (module notes). Its parity in x3 is checked.
+        ``o = 0 … N`` (zero at ``o = N``, which no pair of cells needs) on the corner lattice
+        (:class:`~sacflow.kernels.cuboid_lattice.CuboidLattice`), one depth plane at a time,
+        and transformed laterally; then along depth by a DCT-I (even pairs) or a DST-I (odd
+        pairs), which is its full period-2N DFT up to the factor −i of odd sequences;
+        ``σ_cd = −1`` for an even output and an odd input collects those factors (module
+        notes). Reciprocity and the parity in x3 are checked.
         """
-        n1, n2, n3 = self.shape
         d1, d2, d3 = self.spacing
         N, L1, L2 = self.padded
-        h1, h2, h3 = d1 / 2, d2 / 2, d3 / 2
         x1, x2, used = self._offsets()
-        depth = (np.arange(N + 1) * d3)[:, None, None]
-        used = used[None] & (np.arange(N + 1) < N)[:, None, None]
-        norm = 1.0 / (2 * N * L1 * L2)
         # numba is imported with the first operator (not with the solver: elastic runs and
         # campaign workers of elastic cases skip its slow import).
-        from sacflow.kernels.pair_products import PAIRS
+        from sacflow.kernels.pair_products import EVEN_PAIRS, PAIRS
 
-        slot = {pair: k for k, pair in enumerate(PAIRS)}
-        # Point-major storage (one contiguous run of 21 per spectral point): see pair_products.
-        kernels = np.empty((N + 1, L1, L2 // 2 + 1, 21))
-        stored: dict[int, np.ndarray] = {}
-        scratch = RealFFT((N + 1, L1, L2), 2, threads, one_shot=True)
-        for d in range(6):
-            field = cuboid_stress_component(x1[None], x2[None], depth, h1, h2, h3, self.nu,
-                                            self.mu, d)
-            _check_depth_parity(field[1], cuboid_stress_component(
-                x1, x2, -d3, h1, h2, h3, self.nu, self.mu, d), used[1], d)
-            for c in range(6):
-                odd = MIRROR_SIGN[c] * MIRROR_SIGN[d] < 0
-                sigma = -1.0 if MIRROR_SIGN[c] > 0 > MIRROR_SIGN[d] else 1.0
-                scratch.real[...] = np.where(used, WEIGHT[c] * field[..., c], 0.0)
-                spec = _depth_spectrum(scratch.forward(), odd) * (sigma * norm)
-                k = slot.get((c, d))
-                if k is not None:  # stored: row c ≥ column d, the imaginary ones divided by i
-                    kernels[..., k] = _real_part(spec, odd, c, d)
-                    stored[k] = spec
-                else:  # the transpose: ±(stored), as pair_products assumes; checked
-                    k = slot[d, c]
-                    _check_transpose(stored.pop(k), spec, odd, c, d)
-            del field
+        lattice = CuboidLattice(x1.ravel(), x2.ravel(), (d1 / 2, d2 / 2, d3 / 2), self.nu,
+                                self.mu)
+        _check_depth_parity(lattice.folded_plane(-d3), lattice.folded_plane(d3))
+        for m in (0, 1, N // 2):  # in real space; then only the stored columns are computed
+            _check_reciprocity(lattice.folded_plane(m * d3))
+        # Mirror signs, the reciprocity weights and the mask of the offsets used, in one factor.
+        factor = lattice.unfold_signs(PAIRS) * used[..., None]
+        factor *= np.array([WEIGHT[c] for c, _ in PAIRS])
+        # Point-major storage (one contiguous run of 21 per spectral point), rows k1 ≤ L1 // 2
+        # (the others are their mirror images): see pair_products.
+        half = L1 // 2 + 1
+        kernels = np.empty((N + 1, half, L2 // 2 + 1, 21))
+        kernels[N] = 0.0
+        mirror = np.array([PARITY[0, c] * PARITY[0, d] for c, d in PAIRS])
+        scratch = RealFFT((L1, L2, 21), 2, threads, one_shot=True, axes=(0, 1))
+        # Pairs even in x3 have real spectra, the even–odd ones (one odd lateral axis)
+        # imaginary ones: the largest part that must vanish and the largest kept, per pair.
+        realness = np.zeros((2, 21))
+        even = EVEN_PAIRS
+        for m in range(N):
+            lattice.unfold(lattice.folded_plane(m * d3, PAIRS), factor, out=scratch.real)
+            spectrum = scratch.forward()
+            if m < 2:  # rows L1 − k1 are the mirror images of rows k1 (pair_products)
+                _check_mirror(spectrum, mirror)
+            spectrum = spectrum[:half]
+            kernels[m, ..., :even] = spectrum.real[..., :even]
+            kernels[m, ..., even:] = spectrum.imag[..., even:]
+            np.maximum(realness[0, :even], np.abs(spectrum.imag[..., :even]).max(axis=(0, 1)),
+                       out=realness[0, :even])
+            np.maximum(realness[0, even:], np.abs(spectrum.real[..., even:]).max(axis=(0, 1)),
+                       out=realness[0, even:])
+            np.maximum(realness[1], np.abs(kernels[m]).max(axis=(0, 1)), out=realness[1])
+        _raise_if_broken(float((realness[0] / realness[1].clip(1e-300)).max()), 1.0,
+                         "the realness their parities require")
+        sigma = np.array([-1.0 if MIRROR_SIGN[c] > 0 > MIRROR_SIGN[d] else 1.0
+                          for c, d in PAIRS])
+        _depth_spectra(kernels, even, sigma / (2 * N * L1 * L2), self.threads)
         return kernels
 
     def _layer_kernels(self, threads: int | None) -> tuple[np.ndarray, np.ndarray]:
         """Compute the depth-frequency spectra of the surface terms and the traction correction.
 
         Spectra of the surface traction of 1+2 and of the surface displacement, stacked
-        (2, 6, N + 1, L1, L2h), and of the traction correction (6, N + 1, L1, L2h).
+        (2, 6, N + 1, L1, L2h), and of the traction correction (6, N + 1, L1, L2h); real
+        arrays, the imaginary spectra (components 13, 23) divided by i.
 
         Traction and displacement: ``Σ_d Σ_m S_d(m) K_d(m)`` over the eigenstrain's depth
         spectra ``S`` equals the layer sum ``Σ_d Σ_j T_d(j) ε̂_d(j)`` with ``ε̂_d(j)`` the inverse
-        depth transform of ``S_d`` (the basis of :func:`_depth_basis`). Correction: the stress
+        depth transform of ``S_d`` (the basis of :func:`_depth_projection`). Correction: the stress
         of a unit surface traction at each layer, transformed along depth like the output.
         All normalised for the unnormalised inverse transforms of an application.
         """
@@ -364,34 +438,38 @@ class HalfSpaceEigenstrain:
         # The surface is the top face of the first layer, where the closed form is one-sided;
         # σ33 is continuous across a face, so take its limit at x3 = −η (η = 1e-10 d3).
         eta = 1e-10 * d3
+        lattice = CuboidLattice(o1.ravel(), o2.ravel(), (h1, h2, h3), self.nu, self.mu)
+        sigma33 = [(2, d) for d in range(6)]
         for j, zj in enumerate((np.arange(n3) + 0.5) * d3):
             # σ33 on the surface from the cuboid at depth zj and its image (13, 23 flipped).
-            layer[0, :, j] = spectra(np.stack([
-                self._sigma33(o1, o2, -zj - eta, d)
-                + MIRROR_SIGN[d] * self._sigma33(o1, o2, zj - eta, d) for d in range(6)]))
+            layer[0, :, j] = spectra(lattice.plane(-zj - eta, sigma33)
+                                     + MIRROR_SIGN[:, None, None]
+                                     * lattice.plane(zj - eta, sigma33))
             layer[1, :, j] = spectra(np.moveaxis(
                 cuboid_surface_displacement(o1, o2, zj, h1, h2, h3, self.nu), -1, 0))
             layer[2, :, j] = spectra(np.moveaxis(
-                rectangle_stress(o1, o2, zj, h1, h2, self.nu), -1, 0))
-        out = np.empty((3, 6, N + 1, L1, L2 // 2 + 1), dtype=complex)
+                rectangle_stress_grid(o1, o2, zj, h1, h2, self.nu), -1, 0))
+        # Each spectrum is real (components even in x3: 11 22 33 12) or imaginary (13 23) by
+        # the lateral parities; stored as the real part or the imaginary part (divided by i).
+        half = L1 // 2 + 1  # rows k1 ≤ L1 // 2: the others are their mirror images
+        _check_mirror(np.moveaxis(layer[:, :, 0], (0, 1), (-2, -1)),
+                      np.repeat(PARITY[0][None], 3, axis=0))
+        out = np.empty((3, 6, N + 1, half, L2 // 2 + 1))
         weight = np.full(N + 1, 2.0)
         weight[[0, N]] = 1.0
+        norm = 1.0 / (2 * N * L1 * L2)
         for c in range(6):
-            basis = _depth_basis(N, n3, odd=MIRROR_SIGN[c] < 0)
-            # Inverse (for the layer sums, 1/(2N) there) and forward (type II: 2 × basis).
-            synthesis = basis * (weight[:, None] / (2 * N * L1 * L2))
-            analysis = basis * (2.0 / (2 * N * L1 * L2))
-            out[0, c] = np.einsum("mj,jab->mab", synthesis, layer[0, c])
-            out[1, c] = np.einsum("mj,jab->mab", synthesis, layer[1, c])
-            out[2, c] = np.einsum("mj,jab->mab", analysis, layer[2, c])
+            odd = MIRROR_SIGN[c] < 0
+            keep, drop = (layer.imag, layer.real) if odd else (layer.real, layer.imag)
+            _raise_if_broken(float(np.abs(drop[:, c]).max()), float(np.abs(keep[:, c]).max()),
+                             "the realness their parities require")
+            for k in range(3):
+                projected = _depth_projection(keep[k, c, :, :half], N, odd, self.threads)
+                if k < 2:  # inverse, for the layer sums: weights 1, 2, …, 2, 1 and 1/(2N)
+                    np.multiply(projected, (weight * norm)[:, None, None], out=out[k, c])
+                else:  # forward (type II: 2 × the projection)
+                    np.multiply(projected, 2.0 * norm, out=out[k, c])
         return out[:2], out[2]
-
-    def _sigma33(self, x1: np.ndarray, x2: np.ndarray, x3: float, source: int) -> np.ndarray:
-        """σ33 of the infinite-space cuboid of unit eigenstrain ``source`` at (x1, x2, x3)."""
-        d1, d2, d3 = self.spacing
-        return cuboid_stress_component(
-            x1, x2, x3, d1 / 2, d2 / 2, d3 / 2, self.nu, self.mu, source
-        )[..., 2]
 
     # ------------------------------------------------------------------ application
     def _forward(self, eps: np.ndarray) -> np.ndarray:
@@ -399,7 +477,7 @@ class HalfSpaceEigenstrain:
         n1, n2, n3 = self.shape
         if eps.shape != (n1, n2, n3, 6):
             raise ValueError(f"eigenstrain must have shape {(n1, n2, n3, 6)}, got {eps.shape}")
-        lines = self._lateral_in.real[:, :, :n1, :n2]
+        lines = self._lateral.real[:, :, :n1, :n2]
         layers = np.moveaxis(eps, (3, 2), (0, 1))
         lines[EVEN, :n3] = layers[EVEN]
         lines[EVEN, n3:] = 0.0
@@ -407,7 +485,7 @@ class HalfSpaceEigenstrain:
         lines[ODD, n3 + 1:] = 0.0
         for transform in self._depth_forward:
             transform()
-        return self._lateral_in.forward()
+        return self._lateral.forward()
 
     def _surface_fields(self, spectrum: np.ndarray, kernels: np.ndarray) -> np.ndarray:
         """Surface fields on the box footprint, ``Σ_d Σ_m spectrum_d(m) kernels_qd(m)``.
@@ -433,6 +511,7 @@ class HalfSpaceEigenstrain:
         eps : ndarray (n1, n2, n3, 6)
             Eigenstrain (plastic strain) per cuboid.
         """
+        self._spectra_of_eps = False  # the buffer now holds other spectra
         return self._surface_fields(self._forward(eps), self._surface[1:])[0]
 
     def _multiply(self, spec: np.ndarray, p_hat: np.ndarray, out: np.ndarray) -> None:
@@ -463,26 +542,49 @@ class HalfSpaceEigenstrain:
         With ``with_displacement=True`` returns ``(stress, displacement)`` sharing one forward
         transform.
         """
-        n1, n2, n3 = self.shape
+        traction, displacement = self.surface_fields(eps, with_displacement)
+        stress = self.stress(traction)
+        return (stress, displacement) if with_displacement else stress
+
+    def surface_fields(self, eps: np.ndarray, with_displacement: bool = True
+                       ) -> tuple[np.ndarray, np.ndarray | None]:
+        """First half of an application: the surface fields of the eigenstrain ``eps``.
+
+        Returns the normal surface traction [Pa] that the infinite-space fields (1 + 2 of the
+        module notes) leave on the footprint and, if asked, the residual surface displacement
+        [m], both (n1, n2). The eigenstrain's spectra stay in the operator for :meth:`stress`,
+        which must come next (a contact solve may run in between: its transforms are others).
+        """
         spec = self._forward(eps)
-        # Surface traction of 1 + 2 on the footprint (and the displacement, in the same pass),
-        # then the traction's spectrum for the correction.
         fields = self._surface_fields(spec, self._surface if with_displacement
                                       else self._surface[:1])
-        traction = fields[0]
+        self._spectra_of_eps = True
+        return fields[0], (fields[1] if with_displacement else None)
+
+    def stress(self, traction: np.ndarray, pressure: np.ndarray | None = None) -> np.ndarray:
+        """Second half: the residual stress [Pa] of the eigenstrain of :meth:`surface_fields`.
+
+        The traction it returned is removed from the surface (step 3 of the module notes, Love's
+        stresses of a surface pressure equal to it). With ``pressure`` [Pa] (n1, n2, compressive
+        positive), the stress of that surface pressure is added in the same transforms: the
+        residual stress plus the contact stress for the cost of the residual stress alone.
+        """
+        if not self._spectra_of_eps:
+            raise RuntimeError("HalfSpaceEigenstrain.stress needs surface_fields first")
+        self._spectra_of_eps = False
+        n1, n2, n3 = self.shape
         self._fft2.real[0] = 0.0
-        self._fft2.real[0, :n1, :n2] = traction
+        self._fft2.real[0, :n1, :n2] = traction if pressure is None else traction + pressure
         p_hat = self._fft2.forward()[0]
-        self._multiply(spec, p_hat, self._lateral_out.spectrum)
-        self._lateral_out.inverse()
+        spec = self._lateral.spectrum
+        self._multiply(spec, p_hat, spec)  # in place, point by point
+        self._lateral.inverse()
         for transform in self._depth_inverse:
             transform()
-        lines = self._lateral_out.real[:, :, :n1, :n2]
+        lines = self._lateral.real[:, :, :n1, :n2]
         stress = np.empty((n1, n2, n3, 6))
         stress[..., EVEN] = np.moveaxis(lines[EVEN, :n3], (0, 1), (3, 2))
         stress[..., ODD] = np.moveaxis(lines[ODD, 1:n3 + 1], (0, 1), (3, 2))
-        if with_displacement:
-            return stress, fields[1]
         return stress
 
 

@@ -182,6 +182,10 @@ class RealFFT:
     out_extent : tuple of int, optional
         Only ``real[..., :e_1, …, :e_ndim]`` of the inverse is used: the inverse transform
         computes only the lines that reach that block; the rest of ``real`` is left stale.
+    axes : tuple of int, optional
+        Transform these ``ndim`` increasing axes instead of the trailing ones (the last of them
+        is halved in the spectrum), e.g. the leading two of a (x1, x2, batch) array whose
+        spectrum is wanted point-major; not with ``in_extent`` or ``out_extent``.
 
     Notes
     -----
@@ -206,17 +210,23 @@ class RealFFT:
         one_shot: bool = False,
         in_extent: Sequence[int] | None = None,
         out_extent: Sequence[int] | None = None,
+        axes: Sequence[int] | None = None,
     ):
         self.shape = tuple(int(s) for s in shape)
         self.ndim = ndim
-        self.size = int(np.prod(self.shape[-ndim:]))
+        if axes is None:
+            axes = tuple(range(len(self.shape) - ndim, len(self.shape)))
+        elif in_extent is not None or out_extent is not None or len(axes) != ndim:
+            raise ValueError("axes: ndim increasing axes, and not with a pruned extent")
+        self.axes = tuple(int(a) for a in axes)
+        self.size = int(np.prod([self.shape[a] for a in self.axes]))
         # Threads help only for large enough transforms; on small ones FFTW's synchronisation
         # costs more than it saves, by far when the other core is busy. Campaign workers run on
         # one thread each.
         total = int(np.prod(self.shape))
         self.threads = threads or (default_threads() if total >= _THREADED_POINTS else 1)
-        self.axes = tuple(range(len(self.shape) - ndim, len(self.shape)))
-        spec_shape = self.shape[:-1] + (self.shape[-1] // 2 + 1,)
+        last = self.axes[-1]
+        spec_shape = self.shape[:last] + (self.shape[last] // 2 + 1,) + self.shape[last + 1:]
         self.spectrum_shape = spec_shape
         self._fwd = self._inv = None
         self._fwd_stages: list | None = None
@@ -327,8 +337,9 @@ class RealFFT:
         else:  # pragma: no cover
             import scipy.fft
 
+            lengths = [self.shape[a] for a in self.axes]
             self.real[...] = scipy.fft.irfftn(
-                self.spectrum, s=self.shape[-self.ndim:], axes=self.axes, workers=self.threads
+                self.spectrum, s=lengths, axes=self.axes, workers=self.threads
             ) * self.size
         return self.real
 

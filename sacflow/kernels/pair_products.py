@@ -9,6 +9,12 @@ block, antisymmetric under transposition. numpy needs one call per elementwise o
 150 per slab of spectral points); this compiled loop reads each input, kernel and output once,
 several times faster (``docs/performance.md``). :func:`depth_sums` contracts the spectra over
 depth frequency and component for the surface fields, where numpy's einsum was slow.
+
+Each kernel is even or odd in x1 (the product of the parities of its two components), so its
+spectrum at (−k1, k2) is ± that at (k1, k2): the kernels are stored for k1 = 0 … L1 // 2 only,
+half the memory, and a row k1 > L1 // 2 reads row L1 − k1. With the parities ``P`` of the
+components (:data:`PARITY_X1`: 12 and 13 odd), ``Σ_d K_cd(−k1) s_d = P_c Σ_d K_cd(k1) (P_d s_d)``:
+the mirrored rows flip the 12 and 13 inputs and outputs, no kernel is touched.
 """
 
 from __future__ import annotations
@@ -16,18 +22,27 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-__all__ = ["PAIRS", "depth_sums", "pair_products"]
+from sacflow.kernels.cuboid import PARITY
+
+__all__ = ["EVEN_PAIRS", "PAIRS", "PARITY_X1", "depth_sums", "pair_products"]
 
 #: Storage order of the 21 kernels: pair (c, d) with c ≥ d (row c, column d of the weighted
-#: matrix); the products below are written for this order.
+#: matrix). The 13 pairs even in x3 (real spectra) come first, then the 8 even–odd pairs
+#: (imaginary spectra): the set-up fills and transforms each group as one slice.
 PAIRS = (
-    (0, 0), (1, 0), (2, 0), (3, 0), (4, 0), (5, 0),
-    (1, 1), (2, 1), (3, 1), (4, 1), (5, 1),
-    (2, 2), (3, 2), (4, 2), (5, 2),
-    (3, 3), (4, 3), (5, 3),
-    (4, 4), (5, 4),
-    (5, 5),
+    (0, 0), (1, 0), (2, 0), (3, 0), (1, 1), (2, 1), (3, 1), (2, 2), (3, 2), (3, 3),
+    (4, 4), (5, 4), (5, 5),
+    (4, 0), (5, 0), (4, 1), (5, 1), (4, 2), (5, 2), (4, 3), (5, 3),
 )
+#: Number of leading pairs in :data:`PAIRS` even in x3 (real spectra).
+EVEN_PAIRS = 13
+#: Parity of each component (11 22 33 12 13 23) under x1 → −x1: the spectra of a kernel at
+#: the lateral frequencies (−k1, k2) and (k1, k2) differ by the product of the parities of its
+#: two components, so only the rows k1 = 0 … L1 // 2 are stored (module notes).
+PARITY_X1 = PARITY[0]
+# Slot of each pair in PAIRS, as compile-time constants of the loops below.
+_00, _10, _20, _30, _11, _21, _31, _22, _32, _33, _44, _54, _55 = range(13)
+_40, _50, _41, _51, _42, _52, _43, _53 = range(13, 21)
 
 
 @numba.njit(nogil=True, fastmath=True, cache=True, boundscheck=False)
@@ -40,47 +55,54 @@ def pair_products(spec: np.ndarray, kernels: np.ndarray, inv_weight: np.ndarray,
     ----------
     spec : complex ndarray (6, M, L1, L2h)
         Eigenstrain spectra (depth frequency, lateral frequencies).
-    kernels : float ndarray (M, L1, L2h, 21)
+    kernels : float ndarray (M, L1 // 2 + 1, L2h, 21)
         The weighted kernels ``w_c K_cd`` in :data:`PAIRS` order: the real ones as they are,
         the imaginary (even–odd) ones divided by ``i``. Transposes: ``w_d K_dc = w_c K_cd``
-        for real pairs, ``−w_c K_cd`` for the imaginary ones.
+        for real pairs, ``−w_c K_cd`` for the imaginary ones. Rows k1 ≤ L1 // 2 only: row
+        ``L1 − k1`` is ``P_c P_d`` times row ``k1`` (:data:`PARITY_X1`).
     inv_weight : float ndarray (6,)
         ``1 / w_c`` (tensor shears count twice in σ : ε).
-    correction : complex ndarray (6, M, L1, L2h); p_hat : complex ndarray (L1, L2h)
-        Surface-traction correction spectra and the traction's lateral spectrum.
+    correction : float ndarray (6, M, L1 // 2 + 1, L2h); p_hat : complex ndarray (L1, L2h)
+        Surface-traction correction spectra (those of 13 and 23 imaginary, stored divided by
+        ``i``) and the traction's lateral spectrum.
     out : complex ndarray (6, M, L1, L2h)
         Written for m0 ≤ m < m1 (threads share the depth frequencies out between them).
     """
-    L1, L2h = spec.shape[2], spec.shape[3]
+    L1, L2h, half = spec.shape[2], spec.shape[3], kernels.shape[1]
     w0, w1, w2, w3, w4, w5 = inv_weight[0], inv_weight[1], inv_weight[2], inv_weight[3], \
         inv_weight[4], inv_weight[5]
     for m in range(m0, m1):
         for i in range(L1):
+            # Rows i >= half are the mirror images of rows L1 - i (module notes): the 12 and 13
+            # components (odd in x1) change sign on the way in and on the way out.
+            ii, flip = (i, 1.0) if i < half else (L1 - i, -1.0)
             for j in range(L2h):
-                g = kernels[m, i, j]
+                g = kernels[m, ii, j]
                 s0, s1, s2 = spec[0, m, i, j], spec[1, m, i, j], spec[2, m, i, j]
-                s3, s4, s5 = spec[3, m, i, j], spec[4, m, i, j], spec[5, m, i, j]
+                s3, s4, s5 = flip * spec[3, m, i, j], flip * spec[4, m, i, j], spec[5, m, i, j]
                 p = p_hat[i, j]
                 # Rows of the even components: real 4 × 4 block, −i × the even–odd block.
-                e0 = (g[0] * s0 + g[1] * s1 + g[2] * s2 + g[3] * s3
-                      - 1j * (g[4] * s4 + g[5] * s5))
-                e1 = (g[1] * s0 + g[6] * s1 + g[7] * s2 + g[8] * s3
-                      - 1j * (g[9] * s4 + g[10] * s5))
-                e2 = (g[2] * s0 + g[7] * s1 + g[11] * s2 + g[12] * s3
-                      - 1j * (g[13] * s4 + g[14] * s5))
-                e3 = (g[3] * s0 + g[8] * s1 + g[12] * s2 + g[15] * s3
-                      - 1j * (g[16] * s4 + g[17] * s5))
+                e0 = (g[_00] * s0 + g[_10] * s1 + g[_20] * s2 + g[_30] * s3
+                      - 1j * (g[_40] * s4 + g[_50] * s5))
+                e1 = (g[_10] * s0 + g[_11] * s1 + g[_21] * s2 + g[_31] * s3
+                      - 1j * (g[_41] * s4 + g[_51] * s5))
+                e2 = (g[_20] * s0 + g[_21] * s1 + g[_22] * s2 + g[_32] * s3
+                      - 1j * (g[_42] * s4 + g[_52] * s5))
+                e3 = (g[_30] * s0 + g[_31] * s1 + g[_32] * s2 + g[_33] * s3
+                      - 1j * (g[_43] * s4 + g[_53] * s5))
                 # Rows of the odd components: +i × the transposed block, real 2 × 2 block.
-                o4 = (1j * (g[4] * s0 + g[9] * s1 + g[13] * s2 + g[16] * s3)
-                      + g[18] * s4 + g[19] * s5)
-                o5 = (1j * (g[5] * s0 + g[10] * s1 + g[14] * s2 + g[17] * s3)
-                      + g[19] * s4 + g[20] * s5)
-                out[0, m, i, j] = w0 * e0 + correction[0, m, i, j] * p
-                out[1, m, i, j] = w1 * e1 + correction[1, m, i, j] * p
-                out[2, m, i, j] = w2 * e2 + correction[2, m, i, j] * p
-                out[3, m, i, j] = w3 * e3 + correction[3, m, i, j] * p
-                out[4, m, i, j] = w4 * o4 + correction[4, m, i, j] * p
-                out[5, m, i, j] = w5 * o5 + correction[5, m, i, j] * p
+                o4 = (1j * (g[_40] * s0 + g[_41] * s1 + g[_42] * s2 + g[_43] * s3)
+                      + g[_44] * s4 + g[_54] * s5)
+                o5 = (1j * (g[_50] * s0 + g[_51] * s1 + g[_52] * s2 + g[_53] * s3)
+                      + g[_54] * s4 + g[_55] * s5)
+                # The correction spectra of 13 and 23 are imaginary, stored divided by i.
+                ip = 1j * p
+                out[0, m, i, j] = w0 * e0 + correction[0, m, ii, j] * p
+                out[1, m, i, j] = w1 * e1 + correction[1, m, ii, j] * p
+                out[2, m, i, j] = w2 * e2 + correction[2, m, ii, j] * p
+                out[3, m, i, j] = flip * (w3 * e3 + correction[3, m, ii, j] * p)
+                out[4, m, i, j] = flip * (w4 * o4 + correction[4, m, ii, j] * ip)
+                out[5, m, i, j] = w5 * o5 + correction[5, m, ii, j] * ip
 
 
 @numba.njit(nogil=True, fastmath=True, cache=True, boundscheck=False)
@@ -92,16 +114,22 @@ def depth_sums(spec: np.ndarray, kernels: np.ndarray,
     ----------
     spec : complex ndarray (6, M, L1, L2h)
         Eigenstrain spectra.
-    kernels : complex ndarray (Q, 6, M, L1, L2h)
-        Q sets of surface kernels (e.g. traction and displacement), summed in one pass.
+    kernels : float ndarray (Q, 6, M, L1 // 2 + 1, L2h)
+        Q sets of surface kernels (e.g. traction and displacement), summed in one pass; those
+        of the components 13 and 23 are imaginary, stored divided by ``i``.
     out : complex ndarray (Q, L1, L2h)
         The lateral spectra of the Q surface fields (overwritten).
     """
     Q, M, L1, L2h = kernels.shape[0], spec.shape[1], spec.shape[2], spec.shape[3]
+    half = kernels.shape[3]
     out[...] = 0.0
     for d in range(6):
+        # kernels of the components even in x3 are real; of 13 and 23 imaginary, stored / i
+        factor = 1.0 + 0j if d < 4 else 1j
         for m in range(M):
             for i in range(L1):
+                # mirrored rows: the kernels of 12 and 13 (odd in x1) change sign
+                ii, flip = (i, factor) if i < half else (L1 - i, factor * PARITY_X1[d])
                 for q in range(Q):
                     for j in range(L2h):
-                        out[q, i, j] += spec[d, m, i, j] * kernels[q, d, m, i, j]
+                        out[q, i, j] += flip * (spec[d, m, i, j] * kernels[q, d, m, ii, j])

@@ -199,31 +199,85 @@ def rectangle_stress(
     _check_depth(z)
     shape = np.broadcast_shapes(x1.shape, x2.shape, z.shape, h1.shape, h2.shape)
     # second derivatives of ψ1 and φ1 (corner sums)
-    d = {
-        k: np.zeros(shape)
-        for k in ("p3", "p33", "p11", "p22", "p12", "p13", "p23", "s11", "s22", "s12")
-    }
-    z2 = z * z
-    with np.errstate(divide="ignore", invalid="ignore"):
-        for s1, s2, w in _CORNERS:
-            X = x1 + s1 * h1
-            Y = x2 + s2 * h2
-            XX, YY, XY = X * X, Y * Y, X * Y
-            rho = np.sqrt(XX + YY + z2)
-            a1 = XX + z2
-            a2 = YY + z2
-            d["p3"] += w * -np.arctan2(XY, z * rho)
-            d["p11"] += w * -_safe_div(XY, a1 * rho)
-            d["p22"] += w * -_safe_div(XY, a2 * rho)
-            d["p12"] += w * _safe_div(np.ones_like(rho), rho)
-            d["p13"] += w * -_safe_div(z * Y, a1 * rho)
-            d["p23"] += w * -_safe_div(z * X, a2 * rho)
-            num = _safe_div(XY * (XX + YY), rho + z)
-            d["s11"] += w * np.arctan2(num, XX * rho + z * YY)
-            d["s22"] += w * np.arctan2(num, YY * rho + z * XX)
-            d["s12"] += w * np.log(rho + z)
+    d = {k: np.zeros(shape) for k in _RECTANGLE_TERMS}
+    for s1, s2, w in _CORNERS:
+        for key, term in _rectangle_corner_terms(x1 + s1 * h1, x2 + s2 * h2, z).items():
+            d[key] += w * term
     d["p33"] = -(d["p11"] + d["p22"])  # φ1 is harmonic
     return _stress_from_potentials(d, z, nu)
+
+
+#: Corner functions of Love's rectangle (second derivatives of ψ1 and φ1 but p33).
+_RECTANGLE_TERMS = ("p3", "p11", "p22", "p12", "p13", "p23", "s11", "s22", "s12")
+#: Parity of each stress component (11 22 33 12 13 23) along x1 and x2: odd where True.
+_RECTANGLE_ODD = ((False, False), (False, False), (False, False), (True, True), (True, False),
+                  (False, True))
+
+
+def _rectangle_corner_terms(X, Y, z) -> dict[str, NDArray[np.float64]]:
+    """Corner functions of :func:`rectangle_stress` at one corner (``X, Y``: offsets from it)."""
+    z2 = z * z
+    XX, YY, XY = X * X, Y * Y, X * Y
+    rho = np.sqrt(XX + YY + z2)
+    a1 = XX + z2
+    a2 = YY + z2
+    with np.errstate(divide="ignore", invalid="ignore"):
+        num = _safe_div(XY * (XX + YY), rho + z)
+        return {
+            "p3": -np.arctan2(XY, z * rho),
+            "p11": -_safe_div(XY, a1 * rho),
+            "p22": -_safe_div(XY, a2 * rho),
+            "p12": _safe_div(np.ones_like(rho), rho),
+            "p13": -_safe_div(z * Y, a1 * rho),
+            "p23": -_safe_div(z * X, a2 * rho),
+            "s11": np.arctan2(num, XX * rho + z * YY),
+            "s22": np.arctan2(num, YY * rho + z * XX),
+            "s12": np.log(rho + z),
+        }
+
+
+def rectangle_stress_grid(x1: ArrayLike, x2: ArrayLike, x3: float, half1: float,
+                          half2: float, nu: float) -> NDArray[np.float64]:
+    """:func:`rectangle_stress` on the grid ``x1 × x2`` at one depth, from the corner lattice.
+
+    For offsets of whole cells (``x = o · 2 half``) the corners of neighbouring offsets
+    coincide: the corner functions are evaluated once per lattice point on ``|x1| × |x2|`` and
+    differenced (:mod:`sacflow.kernels.lattice`), then mirrored with the parities of the
+    components. Equal to :func:`rectangle_stress` to rounding (tests).
+
+    Parameters
+    ----------
+    x1, x2 : array_like, 1-D
+        Lateral offsets of the field points from the rectangle centre [m].
+    x3 : float
+        Depth [m], > 0.
+    half1, half2 : float
+        Half-widths of the rectangle [m].
+    nu : float
+        Poisson's ratio.
+
+    Returns
+    -------
+    ndarray, shape (len(x1), len(x2), 6)
+        As :func:`rectangle_stress`.
+    """
+    from sacflow.kernels.lattice import FoldedAxis
+
+    z = float(x3)
+    if not z > 0.0:
+        raise ValueError(f"rectangle_stress_grid needs a depth > 0, got {z}")
+    a1, a2 = FoldedAxis(np.ravel(x1), float(half1)), FoldedAxis(np.ravel(x2), float(half2))
+    terms = _rectangle_corner_terms(a1.lattice[:, None], a2.lattice[None, :], np.float64(z))
+    d = {key: a2.difference(a1.difference(term, 0), 1) for key, term in terms.items()}
+    d["p33"] = -(d["p11"] + d["p22"])  # φ1 is harmonic
+    folded = _stress_from_potentials(d, np.asarray(z), nu)
+    out = a2.unfold(a1.unfold(folded, 0), 1)
+    for c, (odd1, odd2) in enumerate(_RECTANGLE_ODD):
+        if odd1:
+            out[..., c] *= a1.sign[:, None]
+        if odd2:
+            out[..., c] *= a2.sign[None, :]
+    return out
 
 
 def _stress_from_potentials(

@@ -1,0 +1,106 @@
+"""Fine meshes on one machine: set-up (cold and warm kernel cache), one step, peak memory.
+
+One elastic-plastic load step of a rigid sphere (R = 105 µm, W = 0.65 N, Hertz p0 = 8.47 GPa)
+on linear hardening (σ_Y = p0/2, H = 0.05 E), plasticity tolerance 1e-6, n × n surface cells
+over ±1.5 a and an n × n × n/2 cuboid box (the case of ``benchmarks/elastic_plastic.py``).
+
+For each n, in fresh processes sharing a new, empty kernel cache directory:
+
+* ``cold``: set-up with an empty cache (the kernels computed and stored), then the step;
+* ``warm``: set-up from the cache (memory-mapped), then the step.
+
+Prints JSON: set-up and step wall times, the step's operator applications and contact
+iterations, the peak resident memory of each process, and where the set-up's time went (the
+eigenstrain operator alone). ``--profile`` adds the ten functions of the step with the most
+own time. Usage: ``python benchmarks/scale.py [--profile] [n ...]`` (default 64 128).
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import tempfile
+import time
+
+from _common import emit, isolated
+
+E, P0 = 210e9, 8.4696e9
+
+
+def case(n: int) -> dict:
+    return {
+        "name": f"scale-{n}",
+        "body": {"E": E, "nu": 0.3,
+                 "hardening": {"law": "linear", "yield_stress": P0 / 2, "modulus": 0.05 * E}},
+        "counterbody": {"kind": "rigid", "radius": 105e-6},
+        "grid": {"nx": n, "ny": n, "nz": n // 2, "half_width": 1.5},
+        "load_path": [{"kind": "load", "to": 0.65, "increments": 1}],
+        "solver": {"plasticity_tolerance": 1e-6},
+    }
+
+
+def one_step(n: int, cache: str, label: str, profile: bool) -> dict:
+    os.environ["SACFLOW_CACHE_DIR"] = cache
+    import numpy as np
+
+    from sacflow.config import case_from_dict
+    from sacflow.kernels import eigenstrain
+    from sacflow.solver import Simulation
+
+    spent = {"eigenstrain_s": 0.0}
+    build = eigenstrain.HalfSpaceEigenstrain.__init__
+
+    def timed_build(self, *args, **kwargs):
+        t = time.perf_counter()
+        build(self, *args, **kwargs)
+        spent["eigenstrain_s"] += time.perf_counter() - t
+
+    eigenstrain.HalfSpaceEigenstrain.__init__ = timed_build
+    t0 = time.perf_counter()
+    sim = Simulation(case_from_dict(case(n)))
+    setup = time.perf_counter() - t0
+    import resource
+
+    setup_peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    profiler = None
+    if profile:
+        import cProfile
+
+        profiler = cProfile.Profile()
+        profiler.enable()
+    t0 = time.perf_counter()
+    state = next(iter(sim.run()))
+    step = time.perf_counter() - t0
+    result = {
+        "n": n,
+        "cache": label,
+        "cuboids": int(np.prod(sim.eqps.shape)),
+        "setup_s": round(setup, 2),
+        "eigenstrain_setup_s": round(spent["eigenstrain_s"], 2),
+        "setup_peak_memory_mb": round(setup_peak),
+        "step_s": round(step, 2),
+        "residual_stress_applications": state.plasticity_iterations,
+        "contact_iterations": state.contact_iterations,
+        "plastic_cells": int((sim.eqps > 0).sum()),
+        "max_eqps": float(sim.eqps.max()),
+    }
+    if profiler is not None:
+        import io
+        import pstats
+
+        profiler.disable()
+        text = io.StringIO()
+        pstats.Stats(profiler, stream=text).sort_stats("tottime").print_stats(10)
+        result["profile"] = text.getvalue().splitlines()[-14:]
+    return result
+
+
+if __name__ == "__main__":
+    args = [a for a in sys.argv[1:] if not a.startswith("--")]
+    profile = "--profile" in sys.argv
+    results = []
+    for n in [int(a) for a in args] or [64, 128]:
+        with tempfile.TemporaryDirectory(prefix="sacflow-scale-cache-") as cache:
+            for label in ("cold", "warm"):
+                results.append(isolated(one_step, n, cache, label, profile))
+    emit("scale", results)

@@ -1,0 +1,68 @@
+"""Record what the eigenstrain operator and one elastic-plastic step give on small grids.
+
+Writes ``data/operator_outputs.npz``: for three small boxes (anisotropic, cubic and flat
+cuboids) a fixed random plastic-strain field, the residual stress and residual surface
+displacement the operator gives for it, and for one elastic-plastic load step the plastic
+strain and residual stress. ``tests/test_operator_regression.py`` compares the current code
+with them to 1e-10 of each field's largest value: a change of how the kernels are computed,
+stored or cached must not change results. Re-record only after a deliberate change of the
+physics or of the discretisation (and say so in the commit):
+
+    python pipelines/record_operator_outputs.py
+"""
+
+from __future__ import annotations
+
+import subprocess
+from pathlib import Path
+
+import numpy as np
+
+from sacflow.config import case_from_dict
+from sacflow.kernels.eigenstrain import HalfSpaceEigenstrain
+from sacflow.solver import Simulation
+
+OUT = Path(__file__).resolve().parents[1] / "data" / "operator_outputs.npz"
+E, NU = 210e9, 0.3
+#: (shape, spacing [m]) of the operator boxes
+BOXES = {
+    "anisotropic": ((5, 4, 3), (1.0e-6, 1.3e-6, 0.7e-6)),
+    "cubic": ((8, 8, 4), (1.0e-6, 1.0e-6, 1.0e-6)),
+    "flat": ((12, 10, 6), (2.0e-6, 2.0e-6, 0.5e-6)),
+}
+#: one load step of a rigid sphere on linear hardening (p0 = 2 σY), as benchmarks/scale.py
+STEP_CASE = {
+    "name": "operator-regression-step",
+    "body": {"E": E, "nu": NU,
+             "hardening": {"law": "linear", "yield_stress": 4.2348e9, "modulus": 0.05 * E}},
+    "counterbody": {"kind": "rigid", "radius": 105e-6},
+    "grid": {"nx": 16, "ny": 16, "nz": 8, "half_width": 1.5},
+    "load_path": [{"kind": "load", "to": 0.65, "increments": 1}],
+    "solver": {"plasticity_tolerance": 1e-10},
+}
+
+
+def main() -> None:
+    arrays: dict[str, np.ndarray] = {}
+    for name, (shape, spacing) in BOXES.items():
+        rng = np.random.default_rng(list(BOXES).index(name) + 1)
+        eps = rng.standard_normal((*shape, 6)) * 1e-3
+        op = HalfSpaceEigenstrain(shape, spacing, E, NU)
+        stress, displacement = op.residual_stress(eps, with_displacement=True)
+        arrays[f"{name}_eps"] = eps
+        arrays[f"{name}_stress"] = stress
+        arrays[f"{name}_displacement"] = displacement
+    sim = Simulation(case_from_dict(STEP_CASE))
+    state = next(iter(sim.run()))
+    for name in ("plastic_strain", "residual_stress", "stress"):
+        arrays[f"step_{name}"] = np.asarray(state.volume[name])
+    arrays["step_pressure"] = np.asarray(state.surface["pressure"])
+    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True,
+                            text=True, cwd=OUT.parent).stdout.strip()
+    arrays["recorded_at_commit"] = np.array(commit)
+    np.savez_compressed(OUT, **arrays)
+    print(f"wrote {OUT} (commit {commit})")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,248 @@
+"""Disk cache of kernel spectra: a case's set-up is paid once per grid, not once per run.
+
+The influence coefficients of a grid and their spectra depend only on the grid (shape, cell
+sizes), the elastic constants and the code that computes them; a campaign of many loads or
+dents on one grid, or a run started again, computes the same arrays every time (a minute at
+128 × 128 × 64 cuboids before this cache). They are kept here, keyed by everything that
+determines them, and memory-mapped read-only on a hit: processes that share a grid share the
+pages.
+
+Where: ``$SACFLOW_CACHE_DIR`` if set, else ``$XDG_CACHE_HOME/sacflow/kernels`` (by default
+``~/.cache/sacflow/kernels``). ``SACFLOW_CACHE_DIR=off`` disables the cache. Grids whose
+arrays are small (:data:`MIN_CACHED_BYTES`) are not stored. Size limit:
+``$SACFLOW_CACHE_MAX_BYTES`` (a number of bytes, or with a K, M, G or T suffix; default
+:data:`DEFAULT_MAX_BYTES`); the least recently used entries are removed beyond it, and an
+entry larger than the limit is not stored. ``sacflow cache info`` lists the entries,
+``sacflow cache clear`` removes them.
+
+Safe concurrent use (campaign workers share the cache): an entry is written into a private
+temporary directory, flushed, and renamed into place in one step; when two processes compute
+the same entry the second rename fails and that process keeps its own arrays. An entry is
+removed by renaming it away first, so a reader sees a whole entry or none; files already
+mapped stay valid after removal (POSIX). A damaged entry (unreadable, or arrays not matching
+its record) is removed and computed again.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import json
+import os
+import shutil
+import tempfile
+import warnings
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from sacflow.environment import CACHE_OFF, cache_dir_from_env, cache_max_bytes_from_env
+
+__all__ = [
+    "DEFAULT_MAX_BYTES",
+    "MIN_CACHED_BYTES",
+    "CacheEntry",
+    "cache_directory",
+    "cached_arrays",
+    "clear_cache",
+    "list_entries",
+    "max_bytes",
+]
+
+#: Default size limit of the cache (an entry of a 128 × 128 × 64 box takes about 1.4 GB).
+DEFAULT_MAX_BYTES = 16 << 30
+#: Arrays smaller than this are not stored: they are computed in well under a second (a
+#: 48 × 48 × 24 box), and the cache is kept for the grids whose set-up costs.
+MIN_CACHED_BYTES = 32 << 20
+_RECORD = "entry.json"
+
+
+def cache_directory() -> Path | None:
+    """Return the cache directory (not created here), or None when the cache is off."""
+    explicit = cache_dir_from_env()
+    if explicit is not None:
+        if explicit.strip().lower() in CACHE_OFF:
+            return None
+        return Path(explicit).expanduser()
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base).expanduser() / "sacflow" / "kernels"
+
+
+def max_bytes() -> int:
+    """Return the size limit: ``SACFLOW_CACHE_MAX_BYTES`` (``20G``...), else the default."""
+    limit = cache_max_bytes_from_env()
+    return DEFAULT_MAX_BYTES if limit is None else limit
+
+
+@dataclass(frozen=True)
+class CacheEntry:
+    """One cached set of arrays: its directory, what it is for, size and last use."""
+
+    path: Path
+    kind: str
+    parameters: dict[str, Any]
+    nbytes: int
+    last_used: float
+
+
+def _key(kind: str, parameters: Mapping[str, Any]) -> str:
+    """Entry name: the kind and a hash of the canonical JSON of its parameters."""
+    text = json.dumps({"kind": kind, "parameters": parameters}, sort_keys=True)
+    return f"{kind}-{hashlib.sha256(text.encode()).hexdigest()[:24]}"
+
+
+def _load(path: Path, kind: str, parameters: Mapping[str, Any]) -> dict[str, np.ndarray]:
+    """Arrays of the entry at ``path``, memory-mapped read-only; ValueError if it is damaged."""
+    record = json.loads((path / _RECORD).read_text())
+    if record.get("kind") != kind or record.get("parameters") != json.loads(
+            json.dumps(parameters)):
+        raise ValueError("its record is for other parameters")
+    arrays = {}
+    for name, spec in record["arrays"].items():
+        array = np.load(path / f"{name}.npy", mmap_mode="r")
+        if list(array.shape) != spec["shape"] or str(array.dtype) != spec["dtype"]:
+            raise ValueError(f"array {name} is not as recorded")
+        arrays[name] = array
+    with contextlib.suppress(OSError):
+        os.utime(path / _RECORD)  # last use, for the eviction order
+    return arrays
+
+
+def _store(root: Path, name: str, kind: str, parameters: Mapping[str, Any],
+           arrays: Mapping[str, np.ndarray]) -> None:
+    """Write an entry atomically (temporary directory, flushed, renamed into place)."""
+    root.mkdir(parents=True, exist_ok=True)
+    temporary = Path(tempfile.mkdtemp(prefix=f".{name}.", dir=root))
+    try:
+        shapes: dict[str, dict[str, Any]] = {}
+        for array_name, array in arrays.items():
+            with open(temporary / f"{array_name}.npy", "wb") as fh:
+                np.save(fh, np.ascontiguousarray(array))
+                fh.flush()
+                os.fsync(fh.fileno())
+            shapes[array_name] = {"shape": list(array.shape), "dtype": str(array.dtype)}
+        record = {"kind": kind, "parameters": parameters, "arrays": shapes}
+        (temporary / _RECORD).write_text(json.dumps(record, indent=1))
+        try:
+            os.rename(temporary, root / name)
+        except OSError:  # another process stored the same entry first: keep theirs
+            pass
+    finally:
+        if temporary.exists():
+            shutil.rmtree(temporary, ignore_errors=True)
+
+
+def _remove(path: Path) -> None:
+    """Remove an entry: renamed away first (readers see all of it or none), then deleted."""
+    trash = path.with_name(f".trash-{path.name}-{os.getpid()}")
+    try:
+        os.rename(path, trash)
+    except OSError:
+        return  # already gone
+    shutil.rmtree(trash, ignore_errors=True)
+
+
+def list_entries(root: Path | None = None) -> list[CacheEntry]:
+    """Entries of the cache, least recently used first."""
+    root = cache_directory() if root is None else root
+    if root is None or not root.is_dir():
+        return []
+    entries = []
+    for path in root.iterdir():
+        if path.name.startswith(".") or not (path / _RECORD).is_file():
+            continue
+        try:
+            record = json.loads((path / _RECORD).read_text())
+            size = sum(f.stat().st_size for f in path.iterdir())
+            used = (path / _RECORD).stat().st_mtime
+        except (OSError, ValueError):
+            continue
+        entries.append(CacheEntry(path, str(record.get("kind")), record.get("parameters", {}),
+                                  size, used))
+    return sorted(entries, key=lambda e: e.last_used)
+
+
+def clear_cache(root: Path | None = None) -> tuple[int, int]:
+    """Remove every entry (and leftovers of interrupted writes); return (entries, bytes)."""
+    root = cache_directory() if root is None else root
+    if root is None or not root.is_dir():
+        return 0, 0
+    entries = list_entries(root)
+    for entry in entries:
+        _remove(entry.path)
+    for leftover in root.glob(".*"):
+        if leftover.is_dir():
+            shutil.rmtree(leftover, ignore_errors=True)
+    return len(entries), sum(e.nbytes for e in entries)
+
+
+def _evict(root: Path, limit: int) -> None:
+    """Remove the least recently used entries until the cache fits in ``limit`` bytes."""
+    entries = list_entries(root)
+    total = sum(e.nbytes for e in entries)
+    for entry in entries:
+        if total <= limit:
+            break
+        _remove(entry.path)
+        total -= entry.nbytes
+
+
+def cached_arrays(kind: str, parameters: Mapping[str, Any],
+                  compute: Callable[[], dict[str, np.ndarray]],
+                  min_bytes: int | None = None) -> dict[str, np.ndarray]:
+    """Return the arrays ``compute()`` gives for ``parameters``, from the cache if it has them.
+
+    Parameters
+    ----------
+    kind : str
+        What the arrays are (e.g. ``"eigenstrain"``); part of the entry's name.
+    parameters : mapping
+        Everything that determines the arrays, JSON-serialisable: grid, cell sizes, elastic
+        constants and the version of the code that computes them (bump it with the code).
+    compute : callable
+        Computes the arrays on a miss.
+    min_bytes : int, optional
+        Arrays smaller than this in total are not stored (:data:`MIN_CACHED_BYTES`).
+
+    Returns
+    -------
+    dict of ndarray
+        Read-only memory maps on a hit; the computed arrays (then stored) on a miss. A cache
+        that cannot be written (no space, read-only) warns once per process and is bypassed.
+    """
+    root = cache_directory()
+    if root is None:
+        return compute()
+    name = _key(kind, parameters)
+    path = root / name
+    if path.is_dir():
+        try:
+            return _load(path, kind, parameters)
+        except (OSError, ValueError, KeyError) as exc:
+            warnings.warn(f"kernel cache entry {path} is damaged ({exc}); computing it again",
+                          RuntimeWarning, stacklevel=2)
+            _remove(path)
+    arrays = compute()
+    limit = max_bytes()
+    min_bytes = MIN_CACHED_BYTES if min_bytes is None else min_bytes
+    if min_bytes <= sum(a.nbytes for a in arrays.values()) <= limit:
+        try:
+            _store(root, name, kind, dict(parameters), arrays)
+            _evict(root, limit)
+        except OSError as exc:
+            _warn_unwritable(root, exc)
+    return arrays
+
+
+_WARNED: set[str] = set()
+
+
+def _warn_unwritable(root: Path, exc: OSError) -> None:
+    if str(root) not in _WARNED:
+        _WARNED.add(str(root))
+        warnings.warn(f"kernel cache {root} cannot be written ({exc}); running without it "
+                      "(set SACFLOW_CACHE_DIR to a writable directory, or to 'off')",
+                      RuntimeWarning, stacklevel=3)

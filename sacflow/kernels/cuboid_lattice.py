@@ -1,0 +1,201 @@
+r"""Cuboid eigenstrain stresses on a regular grid of offsets, from the lattice of corners.
+
+The stress of a cuboid of uniform eigenstrain (:mod:`sacflow.kernels.cuboid`, Chiu 1977,
+doi:10.1115/1.3424384) is an alternating sum over the cuboid's eight corners of functions of
+``y = x − c`` (``c`` a corner). The influence coefficients of a grid of equal cuboids are needed
+at offsets ``x = o · d`` (whole cells): their corners ``x ± d/2`` then lie on one lattice of
+half-integer multiples of the cell size, shared by neighbouring offsets. Evaluating the corner
+functions once per lattice point and differencing them along each axis gives every corner sum
+with one eighth of the transcendental functions of the corner-by-corner evaluation, and the
+lateral offsets folded to ``x1, x2 ≥ 0`` by the kernels' parities another quarter:
+
+.. math::
+
+    \sum_c s_c F(x - c) = Δ_1 Δ_2 Δ_3 F,\qquad
+    Δ_i F = F(y_i = x_i + h_i) - F(y_i = x_i - h_i),
+
+with ``s_c = +1`` for an even number of upper bounds among the corner's coordinates, as in
+:func:`sacflow.kernels.cuboid._corner_sums`. The 18 corner sums (``T``, ``L``, ``Q``, ``M``,
+``N`` there) enter the stress linearly; the 6 × 6 stress columns are one matrix product of them
+with the coefficients that :func:`sacflow.kernels.cuboid._stress_from_sums` defines, taken from
+it (one source of the formulas). Inside the cuboid ``−C:ε*`` is added as there.
+
+The same corner functions, the same differences: results equal the corner-by-corner evaluation
+to rounding (the tests compare them to 1e-12 of each column's largest value). Validity is that
+of :mod:`sacflow.kernels.cuboid`: no lattice coordinate may be zero, which whole-cell offsets
+(odd multiples of the half sizes) never are.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from sacflow.kernels.cuboid import COMPONENTS, _checked, _stress_from_sums, stiffness_matrix
+from sacflow.kernels.lattice import FoldedAxis
+
+__all__ = ["CuboidLattice", "corner_sum_coefficients"]
+
+#: Corner functions per lattice point: T (3), L (3), Q (3), N (3) and the three M(i, i+1).
+_FUNCTIONS = 15
+#: Corner sums in the order of the coefficient matrix: T, L, Q, N (3 each), then
+#: M(0,1) M(1,2) M(2,0) and their partners M(1,0) M(2,1) M(0,2).
+_SUMS = 18
+_M_PAIRS = ((0, 1), (1, 2), (2, 0))
+#: Planes of corner functions kept for reuse (consecutive offsets share one).
+_PLANE_CACHE = 4
+
+
+def corner_sum_coefficients(nu: float, mu: float) -> np.ndarray:
+    """Coefficients ``K[k, c, d]``: stress ``c`` of unit eigenstrain ``d`` per corner sum ``k``.
+
+    :func:`sacflow.kernels.cuboid._stress_from_sums` is linear in the corner sums outside the
+    cuboid; fed the unit vectors of the 18 sums (order of this module) it returns its matrix.
+    """
+    basis = np.eye(_SUMS)
+    T = [basis[i] for i in range(3)]
+    L = [basis[3 + i] for i in range(3)]
+    Q = [basis[6 + i] for i in range(3)]
+    N = [basis[9 + i] for i in range(3)]
+    M: dict[tuple[int, int], np.ndarray] = {}
+    for n, (i, j) in enumerate(_M_PAIRS):
+        M[(i, j)] = basis[12 + n]
+        M[(j, i)] = basis[15 + n]
+    return _stress_from_sums((T, L, Q, M, N), 0.0, tuple(range(6)), nu, mu)
+
+
+def _corner_functions(y0: np.ndarray, y1: np.ndarray, y2: float, out: np.ndarray) -> None:
+    """Evaluate the 15 corner functions at the lattice points ``y0 × y1`` of the plane ``y2``.
+
+    Written into ``out`` (15, len(y0), len(y1)); the same expressions, term by term, as
+    :func:`sacflow.kernels.cuboid._corner_sums` at one corner.
+    """
+    y = (y0[:, None], y1[None, :], np.float64(y2))
+    sq = (y[0] * y[0], y[1] * y[1], y[2] * y[2])
+    inv_r = 1.0 / np.sqrt(sq[0] + sq[1] + sq[2])
+    prod = y[0] * y[1] * y[2]
+    for i in range(3):
+        j, k = (i + 1) % 3, (i + 2) % 3
+        out[i] = np.arctan((y[j] * y[k] / y[i]) * inv_r)
+        rho2 = sq[i] + sq[j]
+        out[3 + k] = np.arcsinh(y[k] / np.sqrt(rho2))
+        yk_r = y[k] * inv_r
+        out[9 + k] = yk_r
+        out[6 + k] = (prod / rho2) * inv_r
+        out[12 + i] = (sq[i] / rho2) * yk_r
+
+
+class CuboidLattice:
+    """Stress of a unit cuboid eigenstrain at the grid ``x1 × x2``, one plane ``x3`` at a time.
+
+    Parameters
+    ----------
+    x1, x2 : array_like, 1-D
+        Lateral offsets of the field points from the cuboid centre [m]; each may hold negative
+        values (they are folded to ``|x|`` and mirrored with the kernels' parities).
+    half : (float, float, float)
+        Half sizes of the cuboid [m].
+    nu, mu : float
+        Poisson ratio and shear modulus [Pa].
+
+    Notes
+    -----
+    :meth:`plane` returns the columns asked for; the corner functions of a depth are kept for
+    the next plane (offsets one cell apart share a lattice plane).
+    """
+
+    def __init__(self, x1: np.ndarray, x2: np.ndarray, half: Sequence[float], nu: float,
+                 mu: float):
+        half = _checked(half, nu)
+        self.scale = max(half)
+        self.h = tuple(hh / self.scale for hh in half)
+        self.nu, self.mu = float(nu), float(mu)
+        x1 = np.asarray(x1, dtype=float).ravel() / self.scale
+        x2 = np.asarray(x2, dtype=float).ravel() / self.scale
+        self._axes = (FoldedAxis(x1, self.h[0]), FoldedAxis(x2, self.h[1]))
+        # Corner sums → stress: coefficients (18, 36) of every (c, d) column.
+        self._coefficients = corner_sum_coefficients(self.nu, self.mu).reshape(_SUMS, 36)
+        self._free = stiffness_matrix(self.nu, self.mu).reshape(36)
+        self._planes: dict[float, np.ndarray] = {}
+        self.shape = (x1.size, x2.size)
+
+    def _function_plane(self, y2: float) -> np.ndarray:
+        """Corner functions on the folded lateral lattice at lattice depth ``y2`` (cached)."""
+        plane = self._planes.get(y2)
+        if plane is None:
+            u0, u1 = self._axes[0].lattice, self._axes[1].lattice
+            plane = np.empty((_FUNCTIONS, u0.size, u1.size))
+            with np.errstate(divide="ignore", invalid="ignore"):
+                _corner_functions(u0, u1, y2, plane)
+            if len(self._planes) >= _PLANE_CACHE:
+                self._planes.pop(next(iter(self._planes)))
+            self._planes[y2] = plane
+        return plane
+
+    def _sums(self, x3: float) -> np.ndarray:
+        """Return the 18 corner sums at the folded lateral offsets and depth offset ``x3``."""
+        upper = self._function_plane(x3 + self.h[2])
+        lower = self._function_plane(x3 - self.h[2])
+        f = self._axes[1].difference(self._axes[0].difference(upper - lower, 1), 2)
+        sums = np.empty((_SUMS, *f.shape[1:]))
+        sums[:12] = f[:12]
+        for n, (i, j) in enumerate(_M_PAIRS):
+            k = 3 - i - j
+            sums[12 + n] = f[12 + i]
+            sums[15 + n] = f[9 + k] - f[12 + i]
+        return sums
+
+    def folded_plane(self, x3: float, columns: Sequence[tuple[int, int]] | None = None
+                     ) -> np.ndarray:
+        """Columns ``(c, d)`` at the folded offsets ``|x1| × |x2|`` and depth offset ``x3`` [m].
+
+        Returns
+        -------
+        ndarray (len(|x1|), len(|x2|), len(columns))
+            ``A[..., c, d]`` of :func:`sacflow.kernels.cuboid.cuboid_stress` for each column
+            (all 36, row-major, by default).
+        """
+        index = (np.arange(36) if columns is None
+                 else np.array([6 * c + d for c, d in columns], dtype=np.intp))
+        x3s = float(x3) / self.scale
+        sums = self._sums(x3s)
+        a, b = sums.shape[1:]
+        out = (sums.reshape(_SUMS, a * b).T @ self._coefficients[:, index]).reshape(a, b, -1)
+        if abs(x3s) < self.h[2]:
+            inside = ((self._axes[0].folded < self.h[0])[:, None]
+                      & (self._axes[1].folded < self.h[1])[None, :])
+            out[inside] -= self._free[index]
+        return out
+
+    def unfold_signs(self, columns: Sequence[tuple[int, int]]) -> np.ndarray:
+        """Signs (len(x1), len(x2), len(columns)) that mirror folded columns onto ``x1 × x2``.
+
+        ``A_cd(R_i x) = ± A_cd(x)`` for the reflection ``R_i`` of axis i: odd when the axis
+        occurs an odd number of times in ``c`` and ``d`` together.
+        """
+        sign0, sign1 = self._axes[0].sign, self._axes[1].sign
+        out = np.ones((*self.shape, len(columns)))
+        for n, (c, d) in enumerate(columns):
+            if (COMPONENTS[c].count(0) + COMPONENTS[d].count(0)) % 2:
+                out[:, :, n] *= sign0[:, None]
+            if (COMPONENTS[c].count(1) + COMPONENTS[d].count(1)) % 2:
+                out[:, :, n] *= sign1[None, :]
+        return out
+
+    def unfold(self, folded: np.ndarray, signs: np.ndarray,
+               out: np.ndarray | None = None) -> np.ndarray:
+        """Mirror folded columns (from :meth:`folded_plane`) onto the grid ``x1 × x2``."""
+        full = self._axes[1].unfold(self._axes[0].unfold(folded, 0), 1)
+        return np.multiply(full, signs, out=out)
+
+    def plane(self, x3: float, columns: Sequence[tuple[int, int]]) -> np.ndarray:
+        """Columns ``(c, d)`` at the grid ``x1 × x2`` and depth offset ``x3`` [m].
+
+        Returns
+        -------
+        ndarray (len(columns), len(x1), len(x2))
+            Stress component ``c`` [Pa] of unit eigenstrain component ``d`` for each column.
+        """
+        full = self.unfold(self.folded_plane(x3, columns), self.unfold_signs(columns))
+        return np.moveaxis(full, -1, 0)

@@ -1,0 +1,199 @@
+"""The disk cache of kernel spectra (sacflow.kernel_cache): hits equal misses bit for bit,
+concurrent writers, damaged entries, the size limit, clearing, where it lives, the command."""
+
+from __future__ import annotations
+
+import multiprocessing as mp
+import os
+import time
+import warnings
+
+import numpy as np
+import pytest
+
+from sacflow import kernel_cache
+from sacflow.cli import main
+from sacflow.errors import EnvironmentVariableError
+from sacflow.kernels.eigenstrain import HalfSpaceEigenstrain
+
+E, NU = 210e9, 0.3
+
+
+@pytest.fixture
+def cache(tmp_path, monkeypatch):
+    root = tmp_path / "kernels"
+    monkeypatch.setenv("SACFLOW_CACHE_DIR", str(root))
+    monkeypatch.delenv("SACFLOW_CACHE_MAX_BYTES", raising=False)
+    monkeypatch.setattr(kernel_cache, "MIN_CACHED_BYTES", 0)  # small test grids are stored
+    return root
+
+
+def arrays(seed: int = 0, n: int = 1000) -> dict[str, np.ndarray]:
+    rng = np.random.default_rng(seed)
+    return {"a": rng.standard_normal(n), "b": rng.standard_normal((3, n))}
+
+
+def test_operator_from_the_cache_equals_the_computed_one_bit_for_bit(cache):
+    shape, spacing = (9, 8, 5), (1.0e-6, 1.2e-6, 0.6e-6)
+    eps = np.random.default_rng(1).standard_normal((*shape, 6)) * 1e-3
+    computed = HalfSpaceEigenstrain(shape, spacing, E, NU)
+    assert [e.kind for e in kernel_cache.list_entries(cache)] == ["eigenstrain"]
+    loaded = HalfSpaceEigenstrain(shape, spacing, E, NU)
+    assert isinstance(loaded._kernels.base, np.memmap) or isinstance(loaded._kernels, np.memmap)
+    for name in ("_kernels", "_surface", "_correction"):
+        np.testing.assert_array_equal(getattr(loaded, name), getattr(computed, name))
+    s1, u1 = computed.residual_stress(eps, with_displacement=True)
+    s2, u2 = loaded.residual_stress(eps, with_displacement=True)
+    np.testing.assert_array_equal(s1, s2)
+    np.testing.assert_array_equal(u1, u2)
+    # another Poisson ratio is another entry
+    HalfSpaceEigenstrain(shape, spacing, E, 0.25)
+    assert len(kernel_cache.list_entries(cache)) == 2
+
+
+def test_hit_does_not_compute(cache):
+    calls = []
+
+    def compute():
+        calls.append(1)
+        return arrays()
+
+    first = kernel_cache.cached_arrays("test", {"n": 1}, compute)
+    second = kernel_cache.cached_arrays("test", {"n": 1}, compute)
+    assert len(calls) == 1
+    assert not second["a"].flags.writeable
+    np.testing.assert_array_equal(first["b"], second["b"])
+    kernel_cache.cached_arrays("test", {"n": 2}, compute)
+    assert len(calls) == 2
+
+
+def _store_slowly(root: str, barrier, queue) -> None:
+    os.environ["SACFLOW_CACHE_DIR"] = root
+    kernel_cache.MIN_CACHED_BYTES = 0
+
+    def compute():
+        barrier.wait()  # both processes have missed before either stores
+        time.sleep(0.2)
+        return arrays(seed=3, n=200_000)
+
+    out = kernel_cache.cached_arrays("race", {"n": 7}, compute)
+    queue.put(float(out["b"].sum()))
+
+
+def test_concurrent_writers_leave_one_whole_entry(cache):
+    ctx = mp.get_context("spawn")
+    barrier, queue = ctx.Barrier(2), ctx.Queue()
+    procs = [ctx.Process(target=_store_slowly, args=(str(cache), barrier, queue))
+             for _ in range(2)]
+    for p in procs:
+        p.start()
+    sums = [queue.get(timeout=120) for _ in procs]
+    for p in procs:
+        p.join(timeout=60)
+        assert p.exitcode == 0
+    assert sums[0] == sums[1]
+    entries = kernel_cache.list_entries(cache)
+    assert len(entries) == 1
+    assert [p.name for p in cache.iterdir()] == [entries[0].path.name]  # no temporary left
+    loaded = kernel_cache.cached_arrays("race", {"n": 7}, lambda: pytest.fail("recomputed"))
+    np.testing.assert_array_equal(loaded["b"], arrays(seed=3, n=200_000)["b"])
+
+
+def test_damaged_entry_is_computed_again_with_a_warning(cache):
+    kernel_cache.cached_arrays("test", {"n": 1}, arrays)
+    (entry,) = kernel_cache.list_entries(cache)
+    with open(entry.path / "b.npy", "r+b") as fh:
+        fh.truncate(100)
+    with pytest.warns(RuntimeWarning, match="damaged"):
+        out = kernel_cache.cached_arrays("test", {"n": 1}, arrays)
+    np.testing.assert_array_equal(out["b"], arrays()["b"])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # stored again, whole
+        np.testing.assert_array_equal(
+            kernel_cache.cached_arrays("test", {"n": 1}, arrays)["b"], arrays()["b"])
+
+
+def test_record_of_other_parameters_is_not_used(cache):
+    kernel_cache.cached_arrays("test", {"n": 1}, arrays)
+    (entry,) = kernel_cache.list_entries(cache)
+    record = (entry.path / "entry.json").read_text().replace('"n": 1', '"n": 5')
+    (entry.path / "entry.json").write_text(record)
+    with pytest.warns(RuntimeWarning, match="other parameters"):
+        kernel_cache.cached_arrays("test", {"n": 1}, arrays)
+
+
+def test_least_recently_used_entries_go_beyond_the_limit(cache, monkeypatch):
+    size = sum(a.nbytes for a in arrays().values())
+    monkeypatch.setenv("SACFLOW_CACHE_MAX_BYTES", str(int(2.5 * size)))
+    for n in range(3):
+        kernel_cache.cached_arrays("test", {"n": n}, arrays)
+        time.sleep(0.01)
+    kernel_cache.cached_arrays("test", {"n": 0}, arrays)  # a hit: now the most recent
+    time.sleep(0.01)
+    kernel_cache.cached_arrays("test", {"n": 3}, arrays)
+    kept = sorted(e.parameters["n"] for e in kernel_cache.list_entries(cache))
+    assert kept == [0, 3]
+    monkeypatch.setenv("SACFLOW_CACHE_MAX_BYTES", str(size // 2))  # larger than the limit
+    kernel_cache.cached_arrays("test", {"n": 9}, arrays)
+    assert 9 not in [e.parameters["n"] for e in kernel_cache.list_entries(cache)]
+
+
+def test_small_arrays_are_not_stored(cache, monkeypatch):
+    monkeypatch.setattr(kernel_cache, "MIN_CACHED_BYTES", 10**9)
+    kernel_cache.cached_arrays("test", {"n": 1}, arrays)
+    assert kernel_cache.list_entries(cache) == []
+
+
+def test_clear_removes_entries_and_leftovers(cache):
+    for n in range(2):
+        kernel_cache.cached_arrays("test", {"n": n}, arrays)
+    (cache / ".test-interrupted.x").mkdir()
+    count, nbytes = kernel_cache.clear_cache(cache)
+    assert count == 2 and nbytes > 0
+    assert list(cache.iterdir()) == []
+
+
+def test_location_xdg_and_off(tmp_path, monkeypatch):
+    monkeypatch.delenv("SACFLOW_CACHE_DIR", raising=False)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    assert kernel_cache.cache_directory() == tmp_path / "xdg" / "sacflow" / "kernels"
+    monkeypatch.setenv("SACFLOW_CACHE_DIR", "off")
+    assert kernel_cache.cache_directory() is None
+    monkeypatch.setenv("SACFLOW_CACHE_DIR", str(tmp_path / "mine"))
+    assert kernel_cache.cache_directory() == tmp_path / "mine"
+
+
+def test_unwritable_cache_warns_and_computes(tmp_path, monkeypatch):
+    blocker = tmp_path / "a-file"
+    blocker.write_text("not a directory")
+    monkeypatch.setenv("SACFLOW_CACHE_DIR", str(blocker / "kernels"))
+    monkeypatch.setattr(kernel_cache, "MIN_CACHED_BYTES", 0)
+    monkeypatch.setattr(kernel_cache, "_WARNED", set())
+    with pytest.warns(RuntimeWarning, match="cannot be written"):
+        out = kernel_cache.cached_arrays("test", {"n": 1}, arrays)
+    np.testing.assert_array_equal(out["a"], arrays()["a"])
+
+
+@pytest.mark.parametrize(("text", "nbytes"), [("1048576", 1 << 20), ("20G", 20 << 30),
+                                               ("1.5k", 1536), ("500MB", 500 << 20),
+                                               ("2 GiB", 2 << 30)])
+def test_size_limit_from_the_environment(monkeypatch, text, nbytes):
+    monkeypatch.setenv("SACFLOW_CACHE_MAX_BYTES", text)
+    assert kernel_cache.max_bytes() == nbytes
+
+
+@pytest.mark.parametrize("text", ["lots", "-3G", "12X", "G"])
+def test_bad_size_limit_is_refused_with_the_fix(monkeypatch, text):
+    monkeypatch.setenv("SACFLOW_CACHE_MAX_BYTES", text)
+    with pytest.raises(EnvironmentVariableError, match="SACFLOW_CACHE_MAX_BYTES.*e.g. 20G"):
+        kernel_cache.max_bytes()
+
+
+def test_cache_command_lists_and_clears(cache, capsys):
+    kernel_cache.cached_arrays("eigenstrain", {"shape": [4, 5, 6]}, arrays)
+    assert main(["cache"]) == 0
+    out = capsys.readouterr().out
+    assert f"kernel cache {cache}: 1 entries" in out and "4 × 5 × 6 cuboids" in out
+    assert main(["cache", "clear"]) == 0
+    assert "removed 1 entries" in capsys.readouterr().out
+    assert kernel_cache.list_entries(cache) == []

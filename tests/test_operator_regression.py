@@ -1,0 +1,54 @@
+"""The eigenstrain operator and one elastic-plastic step against recorded outputs.
+
+``data/operator_outputs.npz`` holds what the operator gave on three small boxes and what one
+elastic-plastic load step gave, recorded by ``pipelines/record_operator_outputs.py`` before the
+kernels' set-up was rewritten (its commit is stored in the file). How the kernel spectra are
+computed, stored or cached must not change a result beyond 1e-10 of the field's largest value.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sacflow.config import case_from_dict
+from sacflow.kernels.eigenstrain import HalfSpaceEigenstrain
+from sacflow.solver import Simulation
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "pipelines"))
+import record_operator_outputs as recorded  # noqa: E402
+
+RELATIVE = 1e-10
+
+
+@pytest.fixture(scope="module")
+def reference():
+    with np.load(ROOT / "data" / "operator_outputs.npz") as data:
+        return {k: data[k] for k in data.files}
+
+
+def assert_close_to_recorded(actual, expected, what):
+    scale = float(np.abs(expected).max())
+    error = float(np.abs(actual - expected).max())
+    assert error <= RELATIVE * scale, f"{what}: {error:.3e} > {RELATIVE:g} × {scale:.3e}"
+
+
+@pytest.mark.parametrize("box", sorted(recorded.BOXES))
+def test_operator_equals_recorded(reference, box):
+    shape, spacing = recorded.BOXES[box]
+    op = HalfSpaceEigenstrain(shape, spacing, recorded.E, recorded.NU)
+    stress, displacement = op.residual_stress(reference[f"{box}_eps"], with_displacement=True)
+    assert_close_to_recorded(stress, reference[f"{box}_stress"], f"{box} residual stress")
+    assert_close_to_recorded(displacement, reference[f"{box}_displacement"],
+                             f"{box} residual displacement")
+
+
+def test_elastic_plastic_step_equals_recorded(reference):
+    state = next(iter(Simulation(case_from_dict(recorded.STEP_CASE)).run()))
+    for name in ("plastic_strain", "residual_stress", "stress"):
+        assert_close_to_recorded(state.volume[name], reference[f"step_{name}"], name)
+    assert_close_to_recorded(state.surface["pressure"], reference["step_pressure"], "pressure")
