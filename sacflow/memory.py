@@ -69,10 +69,14 @@ FIXED_POINT_TENSORS = 9
 #: iterate and residual, the residual and the mixed iterate (:class:`sacflow.anderson.
 #: AndersonMixer`).
 ANDERSON_EXTRA = 4
+#: Part of the cuboid box the Anderson history is counted on: it is kept on the support of the
+#: plastic strain increment (the plastic zone of the step), measured at 7 % of the box at
+#: 128 × 128 × 64 cuboids (benchmarks/scale.py); a quarter leaves room for wider zones.
+ANDERSON_SUPPORT = 0.25
 #: GMRES restart of the Newton–Krylov fallback (``restart=30`` in the solver): when Anderson
 #: stalls, the Krylov basis holds ``restart + 1`` vectors of the plastic-strain size, besides
-#: the line search's trial iterate and the return's tangent. Counted although the measured runs
-#: never needed it: a run that stalls must not then run out of memory.
+#: the line search's trial iterate and the return's tangent. Reported as what a stalled step
+#: needs (:class:`MemoryEstimate`), not refused: the measured runs rarely need it.
 GMRES_RESTART = 30
 NEWTON_EXTRA = 3
 #: Tensor (6 components) and scalar volume fields of one state with volume output
@@ -116,11 +120,19 @@ class MemoryEstimate:
         The parts, largest first; they add up to ``total``.
     grid : BodyGrid
         The grid the estimate is for.
+    stalled : int
+        The peak if the plastic fixed point stalls and its Newton–Krylov fallback allocates
+        its Krylov basis (``contingent``): reported, not refused (a run that needs it and
+        cannot have it stops with a memory error at that step, its earlier steps stored).
+    contingent : MemoryItem or None
+        That basis.
     """
 
     total: int
     items: tuple[MemoryItem, ...]
     grid: BodyGrid
+    stalled: int = 0
+    contingent: MemoryItem | None = None
 
     def biggest(self, count: int = SHOWN_ITEMS) -> tuple[MemoryItem, ...]:
         """Return the ``count`` largest items."""
@@ -129,7 +141,10 @@ class MemoryEstimate:
     def short(self) -> str:
         """``"1.2 GiB (largest: eigenstrain operator 800 MiB)"``, for the validate line."""
         top = self.items[0]
-        return f"{format_bytes(self.total)} (largest: {top.name} {format_bytes(top.nbytes)})"
+        text = f"{format_bytes(self.total)} (largest: {top.name} {format_bytes(top.nbytes)}"
+        if self.stalled > self.total:
+            text += f"; {format_bytes(self.stalled)} if the fixed point stalls"
+        return text + ")"
 
 
 def format_bytes(nbytes: float) -> str:
@@ -203,19 +218,23 @@ def _tensor_bytes(grid: BodyGrid) -> int:
 
 
 def _solver_state(grid: BodyGrid, case) -> tuple[MemoryItem, MemoryItem]:
-    """Plastic state, one increment's fixed point and Anderson history; the GMRES basis."""
+    """Plastic state, one increment's fixed point and Anderson history; the GMRES basis.
+
+    The Anderson history is kept on the support of the plastic strain increment
+    (:class:`sacflow.anderson.AndersonMixer`), counted as :data:`ANDERSON_SUPPORT` of the box.
+    """
     tensor = _tensor_bytes(grid)
     depth = case.solver.anderson_depth if case.solver.acceleration == "anderson" else 0
     fields = (PLASTIC_STATE_TENSORS + 1 / COMPONENTS + FIXED_POINT_TENSORS
-              + 2 * depth + ANDERSON_EXTRA)
+              + (2 * depth + ANDERSON_EXTRA) * ANDERSON_SUPPORT)
     state = MemoryItem(
         "solver state", int(fields * tensor),
-        f"plastic state, fixed point and Anderson history (depth {depth}): "
-        f"{fields:.0f} volume tensor fields",
+        f"plastic state, fixed point and Anderson history (depth {depth}, on the plastic "
+        f"zone): {fields:.0f} volume tensor fields",
     )
     krylov = GMRES_RESTART + 1 + NEWTON_EXTRA
     newton = MemoryItem("Newton-Krylov basis", krylov * tensor,
-                        f"{krylov} volume tensor fields when the fixed point stalls")
+                        f"{krylov} volume tensor fields if the fixed point stalls")
     return state, newton
 
 
@@ -264,14 +283,19 @@ def estimate_memory(case) -> MemoryEstimate:
     base = [libraries, contact, stress_op]
     phases = [[*base, stress_setup]]  # set-up of the pressure-stress operator
     running = [*base, _states(grid, plastic)]
+    contingent = None
     if plastic:
         eigen_op, eigen_setup = _eigenstrain(grid)
         phases.append([*base, eigen_op, eigen_setup])
-        running += [eigen_op, *_solver_state(grid, case)]
+        state, contingent = _solver_state(grid, case)
+        running += [eigen_op, state]
     phases.append(running)
     items = max(phases, key=lambda phase: sum(item.nbytes for item in phase))
     items = sorted(items, key=lambda item: item.nbytes, reverse=True)
-    return MemoryEstimate(sum(item.nbytes for item in items), tuple(items), grid)
+    total = sum(item.nbytes for item in items)
+    stalled = total if contingent is None else (
+        sum(item.nbytes for item in running) + contingent.nbytes)
+    return MemoryEstimate(total, tuple(items), grid, max(total, stalled), contingent)
 
 
 def _read_int(path: Path) -> int | None:

@@ -413,14 +413,15 @@ def radial_return(trial_stress, eqps, law: HardeningLaw, mu: float, depth=None,
         x = np.where((xn > lo) & (xn < hi), xn, 0.5 * (lo + hi))
         iterations = it + 1
     dp = dp_all[idx]
-    ratio = np.ones(q_tr.shape)  # s_new = s σ_Y(p + Δp)/q_tr: consistency to round-off
-    ratio[idx] = law.yield_stress(p_old[idx] + dp, d_pl) / q_pl
-    factor = np.zeros(q_tr.shape)
-    factor[idx] = 1.5 * dp / q_pl
-    dep = s * factor[:, None]
-    new = s * ratio[:, None]
-    new[:, :3] += ((sig2[:, 0] + sig2[:, 1] + sig2[:, 2]) / 3.0)[:, None]
-    stress = np.where(plastic.reshape(-1, 1), new, sig2)
+    # Only the plastic points change (a small part of a large cuboid box): written in place.
+    ratio = law.yield_stress(p_old[idx] + dp, d_pl) / q_pl  # s_new = s σ_Y(p + Δp)/q_tr
+    s_pl, sig_pl = s[idx], sig2[idx]
+    dep = np.zeros(sig2.shape)
+    dep[idx] = s_pl * (1.5 * dp / q_pl)[:, None]
+    new = s_pl * ratio[:, None]
+    new[:, :3] += ((sig_pl[:, 0] + sig_pl[:, 1] + sig_pl[:, 2]) / 3.0)[:, None]
+    stress = sig2.copy()
+    stress[idx] = new
     return ReturnResult(stress.reshape(sig.shape), dep.reshape(sig.shape), dp_all.reshape(lead),
                         plastic, iterations)
 

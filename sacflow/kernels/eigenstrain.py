@@ -101,7 +101,7 @@ WEIGHT = np.array([1.0, 1.0, 1.0, 2.0, 2.0, 2.0])
 #: (:mod:`sacflow.kernel_cache`); increase it with any change of what the spectra hold.
 KERNEL_VERSION = 3
 #: Bytes of the contiguous blocks in which the pair kernels are transformed along depth.
-_DEPTH_BLOCK_BYTES = 16 << 20
+_DEPTH_BLOCK_BYTES = 4 << 20
 #: Blocks of that size alive at once in a depth transform (the block, a transform's input
 #: and output, and a slice's copy).
 _DEPTH_TEMPORARIES = 4
@@ -201,29 +201,34 @@ def operator_bytes(shape: Sequence[int]) -> int:
 
     Over the N + 1 depth frequencies: the 21 pair spectra and the 3 × 6 surface and correction
     spectra, all real and stored for the lateral rows k1 ≤ L1 // 2 (39 arrays of
-    (L1 // 2 + 1) × (L2 // 2 + 1)), and the one transform buffer (6 real L1 × L2 planes and
-    their complex spectra).
+    (L1 // 2 + 1) × (L2 // 2 + 1)), and the one in-place transform buffer (6 complex
+    L1 × (L2 // 2 + 1) planes, the real planes a view of them).
     """
     L1, L2, N = _padded(shape)
     stored = 39 * 8 * (L1 // 2 + 1) * (L2 // 2 + 1)
-    buffer = 6 * (8 * L1 * L2 + 16 * L1 * (L2 // 2 + 1))
+    buffer = 6 * 16 * L1 * (L2 // 2 + 1)  # in place: the real planes share the spectra's memory
     return int((N + 1) * (stored + buffer))
 
 
 def setup_bytes(shape: Sequence[int]) -> int:
     """Bytes the set-up of a :class:`HalfSpaceEigenstrain` of ``shape`` needs besides them.
 
-    The layer spectra (3 × 6 × n3 complex L1 × (L2 // 2 + 1) planes) are freed before the pair
-    spectra are made: they add what they exceed the pair spectra by. Then the per-plane
-    transform of the pair kernels (21 real planes and spectra) and the blocks of their depth
-    transforms. Measured (tracemalloc): 55 and 135 MB at 64 × 64 × 32 and 96 × 96 × 48 cuboids.
+    The layer spectra (3 × 6 × n3 complex L1 × (L2 // 2 + 1) planes) and the temporaries of
+    their checks and depth projections are freed before the pair spectra are made: they add
+    what they exceed the pair spectra by. Then the per-plane transform of the pair kernels (21
+    real planes and spectra) and the blocks of their depth transforms. Measured (tracemalloc):
+    41, 135 and 316 MiB at 64 × 64 × 32, 96 × 96 × 48 and 128 × 128 × 64 cuboids.
     """
     n1, n2, n3 = shape
     L1, L2, N = _padded(shape)
     plane = 16 * L1 * (L2 // 2 + 1)
     pairs = 21 * 8 * (L1 // 2 + 1) * (L2 // 2 + 1) * (N + 1)
-    layers = max(0, 18 * n3 * plane - pairs)
-    return int(layers + 21 * (plane + 8 * L1 * L2) + _DEPTH_TEMPORARIES * _DEPTH_BLOCK_BYTES)
+    # the layer spectra, the check of one component's (3 n3 real planes), a projection's two
+    # (N + 1)-plane complex temporaries on half the rows
+    checks = 3 * n3 * plane // 2 + 2 * 16 * (N + 1) * (L1 // 2 + 1) * (L2 // 2 + 1)
+    layers = max(0, 18 * n3 * plane + checks - pairs)
+    blocks = _DEPTH_TEMPORARIES * min(_DEPTH_BLOCK_BYTES, pairs)  # no block beyond the array
+    return int(layers + 21 * (plane + 8 * L1 * L2) + blocks)
 
 
 def kernel_bytes(shape: Sequence[int]) -> int:
@@ -302,7 +307,7 @@ class HalfSpaceEigenstrain:
         # the DST's frequencies 1 … N are planes 1 … N for the odd ones (module notes).
         # One buffer serves the forward and the inverse: the products overwrite the spectra.
         self._lateral = RealFFT((6, N + 1, L1, L2), 2, threads, in_extent=(n1, n2),
-                                out_extent=(n1, n2))
+                                out_extent=(n1, n2), in_place=True)
         lines_in = lines_out = self._lateral.real[:, :, :n1, :n2]
         self._depth_forward = (
             RealToReal(lines_in[EVEN, :N], lines_in[EVEN, :N], 1, "FFTW_REDFT10", threads),

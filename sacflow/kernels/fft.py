@@ -182,6 +182,10 @@ class RealFFT:
     out_extent : tuple of int, optional
         Only ``real[..., :e_1, …, :e_ndim]`` of the inverse is used: the inverse transform
         computes only the lines that reach that block; the rest of ``real`` is left stale.
+    in_place : bool, optional
+        ``real`` is a view of ``spectrum``'s memory (FFTW's in-place layout, rows padded to
+        ``2 (L // 2 + 1)`` values): half the memory; a forward transform destroys ``real``.
+        Only for the trailing axes.
     axes : tuple of int, optional
         Transform these ``ndim`` increasing axes instead of the trailing ones (the last of them
         is halved in the spectrum), e.g. the leading two of a (x1, x2, batch) array whose
@@ -211,6 +215,7 @@ class RealFFT:
         in_extent: Sequence[int] | None = None,
         out_extent: Sequence[int] | None = None,
         axes: Sequence[int] | None = None,
+        in_place: bool = False,
     ):
         self.shape = tuple(int(s) for s in shape)
         self.ndim = ndim
@@ -232,10 +237,17 @@ class RealFFT:
         self._fwd_stages: list | None = None
         self._inv_stages: list | None = None
         self._real_written = False
+        self._in_place = False
         self._real_tail: tuple | None = None
         if HAVE_PYFFTW:
-            self.real = pyfftw.empty_aligned(self.shape, dtype="float64")
             self.spectrum = pyfftw.empty_aligned(spec_shape, dtype="complex128")
+            self._in_place = in_place and self.axes[-1] == len(self.shape) - 1
+            if self._in_place:
+                # the real array is a view of the spectrum's memory (rows padded to
+                # 2 (L // 2 + 1) values, FFTW's in-place layout): half the buffer memory
+                self.real = self.spectrum.view(np.float64)[..., : self.shape[-1]]
+            else:
+                self.real = pyfftw.empty_aligned(self.shape, dtype="float64")
             self._planner, self._time_limit = _planner(self.size, ndim, one_shot)
             in_block = self._pruned_extent(in_extent)
             if in_block is not None:
@@ -319,7 +331,8 @@ class RealFFT:
                 if zero is not None:
                     self.spectrum[zero] = 0.0
                 plan.execute()
-            self._real_written = False
+            # in place, the spectrum now fills the real rows beyond the input block too
+            self._real_written = self._in_place
         else:  # pragma: no cover
             import scipy.fft
 
@@ -345,8 +358,9 @@ class RealFFT:
 
     @property
     def nbytes(self) -> int:
-        """Bytes held by the two buffers."""
-        return self.real.nbytes + self.spectrum.nbytes
+        """Bytes held by the buffers (one, shared, when the transform is in place)."""
+        shared = np.shares_memory(self.real, self.spectrum)
+        return self.spectrum.nbytes + (0 if shared else self.real.nbytes)
 
 
 #: scipy.fft fallback (function name, type) of each FFTW real-to-real kind used here;
