@@ -40,6 +40,25 @@ def isolated(func: Callable[..., dict], *args: Any) -> dict:
     return result
 
 
+def hertz_step_case(n: int, scheme: str = "coupled") -> dict:
+    """One elastic-plastic load step of a rigid sphere on linear hardening, n × n × n/2 box.
+
+    R = 105 µm, W = 0.65 N (Hertz p0 = 8.47 GPa), E = 210 GPa, ν = 0.3, σ_Y = p0/2,
+    H = 0.05 E, one increment, plasticity tolerance 1e-6, ±1.5 a (the case of
+    ``elastic_plastic.py`` and ``scale.py``).
+    """
+    E, p0 = 210e9, 8.4696e9
+    return {
+        "name": f"hertz-step-{n}",
+        "body": {"E": E, "nu": 0.3,
+                 "hardening": {"law": "linear", "yield_stress": p0 / 2, "modulus": 0.05 * E}},
+        "counterbody": {"kind": "rigid", "radius": 105e-6},
+        "grid": {"nx": n, "ny": n, "nz": n // 2, "half_width": 1.5},
+        "load_path": [{"kind": "load", "to": 0.65, "increments": 1}],
+        "solver": {"plasticity_tolerance": 1e-6, "scheme": scheme},
+    }
+
+
 def timed(func: Callable[[], Any], repeat: int = 3) -> tuple[float, Any]:
     """Best wall time of ``repeat`` calls of ``func`` and the last result."""
     best, out = float("inf"), None

@@ -13,7 +13,7 @@ from __future__ import annotations
 import sys
 import time
 
-from _common import ROOT, emit, isolated
+from _common import ROOT, emit, hertz_step_case, isolated
 
 
 def one_step(n: int, scheme: str = "coupled") -> dict:
@@ -22,16 +22,7 @@ def one_step(n: int, scheme: str = "coupled") -> dict:
     from sacflow.config import case_from_dict
     from sacflow.solver import Simulation
 
-    E, p0 = 210e9, 8.4696e9
-    case = case_from_dict({
-        "name": f"hertz-step-{n}",
-        "body": {"E": E, "nu": 0.3,
-                 "hardening": {"law": "linear", "yield_stress": p0 / 2, "modulus": 0.05 * E}},
-        "counterbody": {"kind": "rigid", "radius": 105e-6},
-        "grid": {"nx": n, "ny": n, "nz": n // 2, "half_width": 1.5},
-        "load_path": [{"kind": "load", "to": 0.65, "increments": 1}],
-        "solver": {"plasticity_tolerance": 1e-6, "scheme": scheme},
-    })
+    case = case_from_dict(hertz_step_case(n, scheme))
     t0 = time.perf_counter()
     sim = Simulation(case)
     setup = time.perf_counter() - t0

@@ -22,21 +22,7 @@ import sys
 import tempfile
 import time
 
-from _common import emit, isolated
-
-E, P0 = 210e9, 8.4696e9
-
-
-def case(n: int) -> dict:
-    return {
-        "name": f"scale-{n}",
-        "body": {"E": E, "nu": 0.3,
-                 "hardening": {"law": "linear", "yield_stress": P0 / 2, "modulus": 0.05 * E}},
-        "counterbody": {"kind": "rigid", "radius": 105e-6},
-        "grid": {"nx": n, "ny": n, "nz": n // 2, "half_width": 1.5},
-        "load_path": [{"kind": "load", "to": 0.65, "increments": 1}],
-        "solver": {"plasticity_tolerance": 1e-6},
-    }
+from _common import emit, hertz_step_case, isolated
 
 
 def one_step(n: int, cache: str, label: str, profile: bool) -> dict:
@@ -57,7 +43,7 @@ def one_step(n: int, cache: str, label: str, profile: bool) -> dict:
 
     eigenstrain.HalfSpaceEigenstrain.__init__ = timed_build
     t0 = time.perf_counter()
-    sim = Simulation(case_from_dict(case(n)))
+    sim = Simulation(case_from_dict(hertz_step_case(n)))
     setup = time.perf_counter() - t0
     import resource
 
