@@ -179,6 +179,16 @@ def test_runs_without_the_history_are_refused(tmp_path, output, message):
         fatigue_stage(tmp_path / "absent.nc")
 
 
+def test_stress_at_every_step_suffices(tmp_path, result):
+    """volume_every = 2 with the stress in output.every_step: the history is whole, and the
+    index equals that of the run storing every volume field at every step."""
+    case = _case("sparse", volume_every=2, every_step=["stress"])
+    run_case(case_from_dict(case), tmp_path, progress=False)
+    sparse = fatigue_stage(tmp_path / "sparse.nc")
+    np.testing.assert_allclose(sparse["dang_van"].values, result["dang_van"].values,
+                               rtol=1e-9, atol=1e-12)
+
+
 def test_command_writes_the_result_and_plot(rolled, tmp_path):
     cmd = [SACFLOW, "compare", "fatigue", str(rolled), "--out",
            str(tmp_path)]

@@ -159,12 +159,12 @@ def _check_history(ds: xr.Dataset) -> None:
     if "case" not in ds.attrs or "step" not in ds.dims:
         raise CompareError("not a sacflow run (no 'case' attribute or no 'step' dimension)")
     require(ds, "stress", stage=_STAGE)
-    every = case_of(ds).output.volume_every
-    if every != 1:
+    output = case_of(ds).output
+    if output.volume_every != 1 and "stress" not in output.every_step:
         raise CompareError(
-            f"run {case_name(ds)!r} stores the volume fields every {every} steps; the fatigue "
-            "stage needs the stress at every step of the load cycle: set [output] "
-            "volume_every = 1 in the case and run it again"
+            f"run {case_name(ds)!r} stores the volume fields every {output.volume_every} steps; "
+            "the fatigue stage needs the stress at every step of the load cycle: set [output] "
+            "volume_every = 1 (or every_step = [\"stress\"]) in the case and run it again"
         )
     if ds.sizes["step"] < 2:
         raise CompareError(f"run {case_name(ds)!r} has {ds.sizes['step']} step: no history")
