@@ -155,3 +155,13 @@ def test_estimate_is_near_the_measured_peak_or_above(path, overrides):
     numbers = json.loads(out.stdout.splitlines()[-1])
     ratio = numbers["estimate"] / numbers["peak"]
     assert 0.9 < ratio < 1.4, numbers
+
+
+def test_a_large_set_up_is_announced(tmp_path, monkeypatch, capsys):
+    """A run whose estimate exceeds SETUP_NOTICE_BYTES says it is setting up (no silent minute)."""
+    from sacflow import runner
+
+    monkeypatch.setattr(runner, "SETUP_NOTICE_BYTES", 0)
+    case = load_case(HERTZ, ["grid.nx=16", "grid.ny=16", "grid.nz=3"])
+    runner.run_case(case, tmp_path, progress=True)
+    assert "setting up the operators of 16 × 16 × 3 cells" in capsys.readouterr().out
