@@ -390,24 +390,40 @@ class HalfSpaceEigenstrain:
         kernels = np.empty((N + 1, half, L2 // 2 + 1, 21))
         kernels[N] = 0.0
         mirror = np.array([PARITY[0, c] * PARITY[0, d] for c, d in PAIRS])
-        scratch = RealFFT((L1, L2, 21), 2, threads, one_shot=True, axes=(0, 1))
         # Pairs even in x3 have real spectra, the even–odd ones (one odd lateral axis)
         # imaginary ones: the largest part that must vanish and the largest kept, per pair.
-        realness = np.zeros((2, 21))
         even = EVEN_PAIRS
-        for m in range(N):
-            lattice.unfold(lattice.folded_plane(m * d3, PAIRS), factor, out=scratch.real)
-            spectrum = scratch.forward()
-            if m < 2:  # rows L1 − k1 are the mirror images of rows k1 (pair_products)
-                _check_mirror(spectrum, mirror)
-            spectrum = spectrum[:half]
-            kernels[m, ..., :even] = spectrum.real[..., :even]
-            kernels[m, ..., even:] = spectrum.imag[..., even:]
-            np.maximum(realness[0, :even], np.abs(spectrum.imag[..., :even]).max(axis=(0, 1)),
-                       out=realness[0, :even])
-            np.maximum(realness[0, even:], np.abs(spectrum.real[..., even:]).max(axis=(0, 1)),
-                       out=realness[0, even:])
-            np.maximum(realness[1], np.abs(kernels[m]).max(axis=(0, 1)), out=realness[1])
+
+        def planes(first: int, last: int) -> np.ndarray:
+            """Kernels of the depth offsets first … last − 1 (own lattice and buffer)."""
+            own = CuboidLattice(x1.ravel(), x2.ravel(), (d1 / 2, d2 / 2, d3 / 2), self.nu,
+                                self.mu)
+            scratch = RealFFT((L1, L2, 21), 2, 1, one_shot=True, axes=(0, 1))
+            realness = np.zeros((2, 21))
+            for m in range(first, last):
+                own.unfold(own.folded_plane(m * d3, PAIRS), factor, out=scratch.real)
+                spectrum = scratch.forward()
+                if m < 2:  # rows L1 − k1 are the mirror images of rows k1 (pair_products)
+                    _check_mirror(spectrum, mirror)
+                spectrum = spectrum[:half]
+                kernels[m, ..., :even] = spectrum.real[..., :even]
+                kernels[m, ..., even:] = spectrum.imag[..., even:]
+                np.maximum(realness[0, :even],
+                           np.abs(spectrum.imag[..., :even]).max(axis=(0, 1)),
+                           out=realness[0, :even])
+                np.maximum(realness[0, even:],
+                           np.abs(spectrum.real[..., even:]).max(axis=(0, 1)),
+                           out=realness[0, even:])
+                np.maximum(realness[1], np.abs(kernels[m]).max(axis=(0, 1)), out=realness[1])
+            return realness
+
+        # Depth offsets shared out between the threads (numpy and FFTW release the GIL); each
+        # plane is computed alone, so the result does not depend on the split.
+        workers = max(1, min(self.threads, N))
+        bounds = np.linspace(0, N, workers + 1).round().astype(int)
+        with ThreadPoolExecutor(workers, "sacflow-kernels") as pool:
+            parts = list(pool.map(planes, bounds[:-1], bounds[1:]))
+        realness = np.max(parts, axis=0)
         _raise_if_broken(float((realness[0] / realness[1].clip(1e-300)).max()), 1.0,
                          "the realness their parities require")
         sigma = np.array([-1.0 if MIRROR_SIGN[c] > 0 > MIRROR_SIGN[d] else 1.0
@@ -434,26 +450,36 @@ class HalfSpaceEigenstrain:
         h1, h2, h3 = d1 / 2, d2 / 2, d3 / 2
         o1, o2, used = self._offsets()
         layer = np.empty((3, 6, n3, L1, L2 // 2 + 1), dtype=complex)
-        scratch = RealFFT((6, L1, L2), 2, threads, one_shot=True)
-
-        def spectra(fields: np.ndarray) -> np.ndarray:
-            scratch.real[...] = fields * used
-            return scratch.forward()
-
         # The surface is the top face of the first layer, where the closed form is one-sided;
         # σ33 is continuous across a face, so take its limit at x3 = −η (η = 1e-10 d3).
         eta = 1e-10 * d3
-        lattice = CuboidLattice(o1.ravel(), o2.ravel(), (h1, h2, h3), self.nu, self.mu)
         sigma33 = [(2, d) for d in range(6)]
-        for j, zj in enumerate((np.arange(n3) + 0.5) * d3):
-            # σ33 on the surface from the cuboid at depth zj and its image (13, 23 flipped).
-            layer[0, :, j] = spectra(lattice.plane(-zj - eta, sigma33)
-                                     + MIRROR_SIGN[:, None, None]
-                                     * lattice.plane(zj - eta, sigma33))
-            layer[1, :, j] = spectra(np.moveaxis(
-                cuboid_surface_displacement(o1, o2, zj, h1, h2, h3, self.nu), -1, 0))
-            layer[2, :, j] = spectra(np.moveaxis(
-                rectangle_stress_grid(o1, o2, zj, h1, h2, self.nu), -1, 0))
+
+        def layers(first: int, last: int) -> None:
+            """Spectra of the layers first … last − 1 (own lattice and transform buffer)."""
+            lattice = CuboidLattice(o1.ravel(), o2.ravel(), (h1, h2, h3), self.nu, self.mu)
+            scratch = RealFFT((6, L1, L2), 2, 1, one_shot=True)
+
+            def spectra(fields: np.ndarray) -> np.ndarray:
+                scratch.real[...] = fields * used
+                return scratch.forward()
+
+            for j in range(first, last):
+                zj = (j + 0.5) * d3
+                # σ33 on the surface from the cuboid at depth zj and its image (13, 23 flipped)
+                layer[0, :, j] = spectra(lattice.plane(-zj - eta, sigma33)
+                                         + MIRROR_SIGN[:, None, None]
+                                         * lattice.plane(zj - eta, sigma33))
+                layer[1, :, j] = spectra(np.moveaxis(
+                    cuboid_surface_displacement(o1, o2, zj, h1, h2, h3, self.nu), -1, 0))
+                layer[2, :, j] = spectra(np.moveaxis(
+                    rectangle_stress_grid(o1, o2, zj, h1, h2, self.nu), -1, 0))
+
+        # Layers shared out between the threads, as the pair kernels' depth offsets.
+        workers = max(1, min(self.threads, n3))
+        bounds = np.linspace(0, n3, workers + 1).round().astype(int)
+        with ThreadPoolExecutor(workers, "sacflow-kernels") as pool:
+            list(pool.map(layers, bounds[:-1], bounds[1:]))
         # Each spectrum is real (components even in x3: 11 22 33 12) or imaginary (13 23) by
         # the lateral parities; stored as the real part or the imaginary part (divided by i).
         half = L1 // 2 + 1  # rows k1 ≤ L1 // 2: the others are their mirror images
