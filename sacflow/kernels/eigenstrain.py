@@ -458,6 +458,7 @@ class HalfSpaceEigenstrain:
         def layers(first: int, last: int) -> None:
             """Spectra of the layers first … last − 1 (own lattice and transform buffer)."""
             lattice = CuboidLattice(o1.ravel(), o2.ravel(), (h1, h2, h3), self.nu, self.mu)
+            signs = lattice.unfold_signs(sigma33)
             scratch = RealFFT((6, L1, L2), 2, 1, one_shot=True)
 
             def spectra(fields: np.ndarray) -> np.ndarray:
@@ -467,9 +468,10 @@ class HalfSpaceEigenstrain:
             for j in range(first, last):
                 zj = (j + 0.5) * d3
                 # σ33 on the surface from the cuboid at depth zj and its image (13, 23 flipped)
-                layer[0, :, j] = spectra(lattice.plane(-zj - eta, sigma33)
-                                         + MIRROR_SIGN[:, None, None]
-                                         * lattice.plane(zj - eta, sigma33))
+                # (summed on the folded offsets, then mirrored once: the same parities)
+                folded = (lattice.folded_plane(-zj - eta, sigma33)
+                          + MIRROR_SIGN * lattice.folded_plane(zj - eta, sigma33))
+                layer[0, :, j] = spectra(np.moveaxis(lattice.unfold(folded, signs), -1, 0))
                 layer[1, :, j] = spectra(np.moveaxis(
                     cuboid_surface_displacement(o1, o2, zj, h1, h2, h3, self.nu), -1, 0))
                 layer[2, :, j] = spectra(np.moveaxis(
