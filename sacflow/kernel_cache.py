@@ -29,6 +29,7 @@ import contextlib
 import hashlib
 import json
 import os
+import re
 import shutil
 import tempfile
 import warnings
@@ -58,6 +59,10 @@ DEFAULT_MAX_BYTES = 16 << 30
 #: 48 × 48 × 24 box), and the cache is kept for the grids whose set-up costs.
 MIN_CACHED_BYTES = 32 << 20
 _RECORD = "entry.json"
+#: Names the cache writes in its directory, and the only ones it ever removes (the directory may
+#: be one the user chose, holding other things): entries, their temporaries, removed entries.
+_ENTRY = re.compile(r"^[a-z0-9_]+-[0-9a-f]{24}$")
+_LEFTOVER = re.compile(r"^\.(?:[a-z0-9_]+-[0-9a-f]{24}\..+|trash-[a-z0-9_]+-[0-9a-f]{24}-\d+)$")
 
 
 def cache_directory() -> Path | None:
@@ -152,7 +157,7 @@ def list_entries(root: Path | None = None) -> list[CacheEntry]:
         return []
     entries = []
     for path in root.iterdir():
-        if path.name.startswith(".") or not (path / _RECORD).is_file():
+        if not _ENTRY.match(path.name) or not (path / _RECORD).is_file():
             continue
         try:
             record = json.loads((path / _RECORD).read_text())
@@ -166,15 +171,19 @@ def list_entries(root: Path | None = None) -> list[CacheEntry]:
 
 
 def clear_cache(root: Path | None = None) -> tuple[int, int]:
-    """Remove every entry (and leftovers of interrupted writes); return (entries, bytes)."""
+    """Remove every entry (and leftovers of interrupted writes); return (entries, bytes).
+
+    Only what the cache itself wrote is removed: a directory set by ``SACFLOW_CACHE_DIR`` that
+    holds anything else keeps it.
+    """
     root = cache_directory() if root is None else root
     if root is None or not root.is_dir():
         return 0, 0
     entries = list_entries(root)
     for entry in entries:
         _remove(entry.path)
-    for leftover in root.glob(".*"):
-        if leftover.is_dir():
+    for leftover in root.iterdir():  # interrupted writes and removals (this cache's names only)
+        if _LEFTOVER.match(leftover.name) and leftover.is_dir():
             shutil.rmtree(leftover, ignore_errors=True)
     return len(entries), sum(e.nbytes for e in entries)
 

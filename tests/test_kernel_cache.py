@@ -147,10 +147,25 @@ def test_small_arrays_are_not_stored(cache, monkeypatch):
 def test_clear_removes_entries_and_leftovers(cache):
     for n in range(2):
         kernel_cache.cached_arrays("test", {"n": n}, arrays)
-    (cache / ".test-interrupted.x").mkdir()
+    (cache / f".test-{'a' * 24}.x1y2").mkdir()  # an interrupted write (tempfile.mkdtemp)
+    (cache / f".trash-test-{'b' * 24}-123").mkdir()  # an interrupted removal
     count, nbytes = kernel_cache.clear_cache(cache)
     assert count == 2 and nbytes > 0
     assert list(cache.iterdir()) == []
+
+
+def test_clear_keeps_what_the_cache_did_not_write(cache):
+    """SACFLOW_CACHE_DIR may point at a folder of the user's: only cache entries go."""
+    kernel_cache.cached_arrays("test", {"n": 1}, arrays)
+    mine = [cache / ".git", cache / "results", cache / "notes-2026"]
+    for folder in mine:
+        folder.mkdir()
+        (folder / "entry.json").write_text("{}")  # even with a file named like the record
+    (cache / "data.npy").write_bytes(b"x")
+    count, _ = kernel_cache.clear_cache(cache)
+    assert count == 1
+    assert sorted(p.name for p in cache.iterdir()) == sorted(
+        [*(p.name for p in mine), "data.npy"])
 
 
 def test_location_xdg_and_off(tmp_path, monkeypatch):

@@ -32,7 +32,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from sacflow.kernels.cuboid import COMPONENTS, _checked, _stress_from_sums, stiffness_matrix
+from sacflow.kernels.cuboid import PARITY, _checked, _stress_from_sums, stiffness_matrix
 from sacflow.kernels.lattice import FoldedAxis
 
 __all__ = ["CuboidLattice", "corner_sum_coefficients"]
@@ -177,9 +177,9 @@ class CuboidLattice:
         sign0, sign1 = self._axes[0].sign, self._axes[1].sign
         out = np.ones((*self.shape, len(columns)))
         for n, (c, d) in enumerate(columns):
-            if (COMPONENTS[c].count(0) + COMPONENTS[d].count(0)) % 2:
+            if PARITY[0, c] * PARITY[0, d] < 0:
                 out[:, :, n] *= sign0[:, None]
-            if (COMPONENTS[c].count(1) + COMPONENTS[d].count(1)) % 2:
+            if PARITY[1, c] * PARITY[1, d] < 0:
                 out[:, :, n] *= sign1[None, :]
         return out
 

@@ -92,7 +92,7 @@ __all__ = [
 ]
 
 #: Sign of each component under the reflection x3 → −x3 (13 and 23 flip).
-MIRROR_SIGN = np.array([1.0, 1.0, 1.0, 1.0, -1.0, -1.0])
+MIRROR_SIGN = PARITY[2]
 #: Components even (11 22 33 12) and odd (13 23) under x3 → −x3.
 EVEN, ODD = slice(0, 4), slice(4, 6)
 #: Reciprocity weights of the components (tensor shears count twice in σ : ε).

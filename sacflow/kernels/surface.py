@@ -209,9 +209,6 @@ def rectangle_stress(
 
 #: Corner functions of Love's rectangle (second derivatives of ψ1 and φ1 but p33).
 _RECTANGLE_TERMS = ("p3", "p11", "p22", "p12", "p13", "p23", "s11", "s22", "s12")
-#: Parity of each stress component (11 22 33 12 13 23) along x1 and x2: odd where True.
-_RECTANGLE_ODD = ((False, False), (False, False), (False, False), (True, True), (True, False),
-                  (False, True))
 
 
 def _rectangle_corner_terms(X, Y, z) -> dict[str, NDArray[np.float64]]:
@@ -261,6 +258,7 @@ def rectangle_stress_grid(x1: ArrayLike, x2: ArrayLike, x3: float, half1: float,
     ndarray, shape (len(x1), len(x2), 6)
         As :func:`rectangle_stress`.
     """
+    from sacflow.kernels.cuboid import PARITY
     from sacflow.kernels.lattice import FoldedAxis
 
     z = float(x3)
@@ -272,10 +270,10 @@ def rectangle_stress_grid(x1: ArrayLike, x2: ArrayLike, x3: float, half1: float,
     d["p33"] = -(d["p11"] + d["p22"])  # φ1 is harmonic
     folded = _stress_from_potentials(d, np.asarray(z), nu)
     out = a2.unfold(a1.unfold(folded, 0), 1)
-    for c, (odd1, odd2) in enumerate(_RECTANGLE_ODD):
-        if odd1:
+    for c in range(6):  # a stress component's parity along x1 and x2 (12, 13, 23 odd)
+        if PARITY[0, c] < 0:
             out[..., c] *= a1.sign[:, None]
-        if odd2:
+        if PARITY[1, c] < 0:
             out[..., c] *= a2.sign[None, :]
     return out
 
