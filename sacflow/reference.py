@@ -34,6 +34,7 @@ __all__ = [
     "hertz_pressure",
     "hertz_subsurface_stress",
     "hertz_surface_displacement",
+    "line_contact_stress",
     "von_mises",
 ]
 
@@ -277,6 +278,57 @@ def hertz_axis_stress(
     q = 1.0 / (1.0 + zeta * zeta)
     sigma_r = -(1.0 + nu) * (1.0 - zeta * np.arctan2(1.0, zeta)) + 0.5 * q
     return p0 * sigma_r, -p0 * q
+
+
+def line_contact_stress(
+    x1: ArrayLike, x3: ArrayLike, a: float, p0: float, nu: float
+) -> NDArray[np.float64]:
+    r"""Plane-strain stress field of a Hertz line contact of half-width ``a`` (McEwen 1949).
+
+    E. McEwen, "Stresses in elastic cylinders in contact along a generatrix", Phil. Mag. 40
+    (1949) 454, with z = x3, x = x1:
+
+    .. math::
+
+        \sigma_{11} &= -\frac{p_0}{a}\left[m\left(1 + \frac{x_3^2 + n^2}{m^2 + n^2}\right)
+            - 2x_3\right], \qquad
+        \sigma_{33} = -\frac{p_0}{a}\, m\left(1 - \frac{x_3^2 + n^2}{m^2 + n^2}\right), \\
+        \sigma_{13} &= -\frac{p_0}{a}\, n\,\frac{m^2 - x_3^2}{m^2 + n^2}, \qquad
+        \sigma_{22} = \nu(\sigma_{11} + \sigma_{33}),
+
+    with :math:`m^2, n^2 = \tfrac12\bigl[\sqrt{(a^2 - x_1^2 + x_3^2)^2 + 4x_1^2x_3^2}
+    \pm (a^2 - x_1^2 + x_3^2)\bigr]`, m ≥ 0 and n of the sign of x1. The sign of σ13 is that
+    of this module's convention (x3 into the body; the tests check the whole field against
+    quadrature of Flamant's line-load stresses).
+
+    Parameters
+    ----------
+    x1 : array_like
+        Coordinate across the contact, relative to its centre [m].
+    x3 : array_like
+        Depth [m], >= 0. Broadcasts with ``x1``.
+    a, p0, nu : float
+        Contact half-width [m], peak pressure [Pa], Poisson's ratio.
+
+    Returns
+    -------
+    ndarray, shape (..., 6)
+        Stress [Pa] in the order (11, 22, 33, 12, 13, 23); σ12 = σ23 = 0.
+    """
+    x, z = np.broadcast_arrays(np.asarray(x1, dtype=np.float64), np.asarray(x3, dtype=np.float64))
+    if np.any(z < 0.0):
+        raise ValueError("x3 is the depth below the surface and must be >= 0")
+    c = a * a - x * x + z * z
+    root = np.sqrt(c * c + 4.0 * x * x * z * z)
+    m = np.sqrt(0.5 * (root + c))
+    n = np.sign(x) * np.sqrt(np.maximum(0.5 * (root - c), 0.0))
+    ratio = (z * z + n * n) / (m * m + n * n)
+    out = np.zeros((*x.shape, 6))
+    out[..., 0] = -(m * (1.0 + ratio) - 2.0 * z)
+    out[..., 2] = -m * (1.0 - ratio)
+    out[..., 4] = -n * (m * m - z * z) / (m * m + n * n)
+    out[..., 1] = nu * (out[..., 0] + out[..., 2])
+    return (p0 / a) * out
 
 
 def von_mises(stress: ArrayLike) -> NDArray[np.float64]:

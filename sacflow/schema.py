@@ -89,7 +89,8 @@ OPTIONAL_TABLES: tuple[str, ...] = ("friction", "body.hardening.kinematic")
 #: Options added after runs were stored, left out of the identity at their default value (the
 #: case_id of a case that does not set them is the one it had before they existed).
 DEFAULTS_LEFT_OUT: dict[str, Any] = {"output.volume_precision": "float64",
-                                     "output.every_step": []}
+                                     "output.every_step": [],
+                                     "solver.residual_displacement_in_gap": True}
 #: Load-path segment options added after runs were stored, left out of the identity when unset.
 OPTIONAL_SEGMENT_KEYS: tuple[str, ...] = ("passes", "between", "lift_increments")
 
@@ -684,6 +685,14 @@ class SolverOptions(Model):
     )
     fft_threads: Annotated[int, Field(ge=1, le=MAX_THREADS)] | None = Field(
         None, description="FFT threads (default: all cores)"
+    )
+    residual_displacement_in_gap: bool = Field(
+        True,
+        description="true: the residual surface displacement of the plastic strain enters the "
+        "contact gap, so the pressure follows the deformed surface (the seed's model); false: "
+        "the gap stays that of the surface the run starts from (what this run's plastic strain "
+        "adds is left out), so the pressure is that of elastic contact, the load of classical "
+        "shakedown analyses (Melan's theorem)",
     )
 
 

@@ -196,6 +196,11 @@ class Simulation:
             self._start_from(case.initial_state, initial)
         self._pressure: np.ndarray | None = None
         self._h_offset: float | None = None
+        # the residual displacement the contact sees when this run's own is left out of the gap
+        self._fixed_gap_displacement = (
+            None if case.solver.residual_displacement_in_gap
+            else self.residual_displacement.copy()
+        )
 
     def _start_from(self, spec, stored: StoredState | None) -> None:
         """Take the plastic state of a stored run (``initial_state``), mapped onto this grid.
@@ -336,6 +341,8 @@ class Simulation:
 
         def solve(u_r: np.ndarray) -> ContactResult:
             nonlocal contact_iterations
+            if self._fixed_gap_displacement is not None:
+                u_r = self._fixed_gap_displacement
             result = self._contact(geometry + u_r[sl], plan.load, step)
             contact_iterations += result.iterations
             self._pressure = result.pressure
@@ -408,7 +415,8 @@ class Simulation:
         x = np.zeros(self.plastic_strain.shape)  # a moved copy of the last increment: worse
         try:
             dx, dp, applications, res = self._fixed_point(
-                sigma, x, step, converged, "plasticity", coupled=True)
+                sigma, x, step, converged, "plasticity", coupled=True,
+                pressure_follows=self._fixed_gap_displacement is None)
         except ConvergenceError as exc:
             if exc.residual < opts.plasticity_tolerance:  # the residual displacement still moved
                 raise ConvergenceError("coupling", step=step, residual=last["du"],
@@ -465,7 +473,8 @@ class Simulation:
                                iterations=opts.coupling_max_iterations)
 
     def _fixed_point(
-        self, sigma, x: np.ndarray, step: int, converged, what: str, coupled: bool = False
+        self, sigma, x: np.ndarray, step: int, converged, what: str, coupled: bool = False,
+        pressure_follows: bool | None = None,
     ):
         """Plastic strain increment ``x = G(x) = Δεp_return(σ(x) + 2μ x)`` (seed Fig. 4).
 
@@ -489,8 +498,13 @@ class Simulation:
         product, as the analytic one costs one application. Returns ``(Δεp, Δp,
         residual-stress applications, final residual)`` with ``Δεp = G(x)``, or, ``coupled``,
         the converged iterate ``x`` itself (whose residual fields the last evaluation computed).
+        ``pressure_follows`` (default: ``coupled``) says whether the pressure depends on ``x``;
+        when the residual displacement is left out of the gap it does not, and the analytic
+        Jacobian is exact in the coupled scheme too.
         """
         from scipy.sparse.linalg import LinearOperator  # plastic runs only
+
+        follows = coupled if pressure_follows is None else pressure_follows
 
         opts = self.case.solver
         depth, mu, eqps = self.coords.x3, self.mu, self.eqps
@@ -513,7 +527,7 @@ class Simulation:
 
         def jacobian(x: np.ndarray, ev: Evaluation) -> LinearOperator:
             """``I − T (A + 2μ)``: ``T`` the return's algorithmic tangent, ``A`` residual stress."""
-            if coupled:
+            if follows:
                 return difference_jacobian(evaluate, x, ev, FD_STEP,
                                            max(float(np.abs(x).max()), strain_scale))
             trial, ret = ev.data

@@ -141,3 +141,35 @@ def test_the_shakedown_campaign_sweeps_p0_over_k_at_a_roll_distance_of_4a():
         assert case.load_path[1].distance == pytest.approx(4.0 * hertz.a, rel=1e-4)
         assert case.load_path[1].passes == 6
     np.testing.assert_allclose(ratios, [3.5, 4.0, 4.5, 4.75, 5.0, 5.25, 5.5, 6.0], rtol=1e-4)
+
+
+def test_the_gap_can_leave_the_residual_displacement_out(tmp_path):
+    """``solver.residual_displacement_in_gap = false``: the contact sees the undeformed surface,
+    so the pressure is that of the elastic body at every step, while the plastic strain and
+    the residual displacement it leaves are still computed and stored. With the default, the
+    plastic groove spreads the pressure: its peak falls below the elastic one. The default
+    keeps the case id."""
+    short = ["grid.nx=12", "grid.ny=12", "grid.nz=6", "load_path.1.steps=6",
+             "load_path.1.passes=2"]
+    config = ROOT / "configs" / "rolling-cycles-shakedown.toml"
+    fixed = load_case(config, [*short, "solver.residual_displacement_in_gap=false"])
+    coupled = load_case(config, short)
+    elastic = load_case(config, [*short, "body.hardening.yield_stress=1e12"])
+    assert coupled.case_id == load_case(config, [
+        *short, "solver.residual_displacement_in_gap=true"]).case_id
+    assert fixed.case_id != coupled.case_id
+    runs = {}
+    for name, case in (("fixed", fixed), ("coupled", coupled), ("elastic", elastic)):
+        path = run_case(case, tmp_path / name, progress=False).path
+        with xr.open_dataset(path) as ds:
+            runs[name] = {v: ds[v].values for v in ("pressure", "max_pressure",
+                                                     "residual_displacement", "load")}
+    loaded = runs["fixed"]["load"] > 0
+    assert_pressure = runs["elastic"]["pressure"][loaded]
+    np.testing.assert_allclose(runs["fixed"]["pressure"][loaded], assert_pressure,
+                               rtol=0, atol=1e-8 * assert_pressure.max(),
+                               err_msg="the fixed gap's pressure is the elastic one")
+    assert np.abs(runs["fixed"]["residual_displacement"][-1]).max() > 0
+    peak = runs["elastic"]["max_pressure"][loaded]
+    assert np.all(runs["coupled"]["max_pressure"][loaded][4:] < 0.99 * peak[4:]), \
+        "the groove spreads the pressure"

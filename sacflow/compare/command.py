@@ -71,6 +71,8 @@ STAGES: dict[str, Stage] = {
     ),
     "passes": Stage("passes:pass_report", "1",
                     help="repeated rolling: plastic flow per pass, shakedown or ratcheting"),
+    "melan": Stage("melan:melan_check", "1", ("step",),
+                   help="Melan's shakedown check of the stored pressure, rolled steadily"),
     "material-point": Stage(
         "material:material_point_stage",
         "1",

@@ -16,6 +16,7 @@ import xarray as xr
 from matplotlib.figure import Figure
 
 from sacflow.compare.material import plot_material_point
+from sacflow.compare.melan import plot_melan
 from sacflow.compare.passes import plot_passes
 from sacflow.reference import hertz_contact, hertz_pressure
 
@@ -443,6 +444,7 @@ PLOTS: dict[str, Callable[..., Figure]] = {
     "fatigue": plot_fatigue,
     "material-point": plot_material_point,
     "passes": plot_passes,
+    "melan": plot_melan,
 }
 
 
