@@ -2,15 +2,16 @@ r"""Melan's static shakedown theorem for steady rolling: a lower bound with its 
 
 The load domain of steady free rolling over a long track is the elastic stress field of the
 contact at every position s of the load along x1, σ̂(x1 − s, x2, x3) per unit peak pressure,
-and the unloaded state. Melan's theorem (Melan 1938; Johnson, *Contact Mechanics*, 1985, §9.3,
-eq. 9.27): an elastic–perfectly plastic body shakes down at the load factor λ (peak pressure
+and the unloaded state. Melan's theorem (Melan 1938; Johnson, *Contact Mechanics*, 1985,
+§9.3): an elastic–perfectly plastic body shakes down at the load factor λ (peak pressure
 λ, from any initial state) if there is a time-independent self-equilibrated residual stress ρ,
 traction-free on the surface, with
 
 .. math:: \sigma_{vM}\bigl(\lambda\,\hat\sigma(x_1 - s, x_2, x_3) + \rho\bigr) \le \sigma_Y
           \quad\text{for every point and every } s,
 
-and the largest such λ is the shakedown limit. The load domain does not change under a shift
+and (with Koiter's kinematic theorem bounding it from above) the largest such λ is the
+shakedown limit. The load domain does not change under a shift
 of x1 and the yield condition is convex, so averaging a safe ρ over its shifts gives a safe ρ
 that does not depend on x1: the search runs over fields ρ(x2, x3) of the half-plane. With
 ∂/∂x1 = 0 the equilibrium equations and the traction-free surface x3 = 0 are solved exactly by
@@ -28,9 +29,8 @@ No compatibility is asked (Melan's theorem does not need it). Here s, ψ and φ 
 products of clamped cubic B-splines on the box |x2| ≤ L, 0 ≤ x3 ≤ D; ψ, φ and ∂φ vanish on the
 box's far edges as well, so ρ is zero outside the box and self-equilibrated in the whole
 half-space, exactly: the stress functions are differentiated in closed form, not by differences.
-The ``"depth"`` class keeps ρ11 and ρ22 functions of depth only (φ = φ(x3): admissible in a body
-of unbounded width), the residual field of the classical lower-bound estimates of rolling
-shakedown.
+To these the ``"full"`` class adds ρ11(x3) and ρ22(x3), functions of depth only, which are
+admissible in a body of unbounded width (φ = φ(x3)); the ``"depth"`` class is that part alone.
 
 The largest von Mises stress over the samples is minimised over the spline coefficients; the
 maximum is smoothed by a log-sum-exp of the squared von Mises stress with a rising sharpness,
