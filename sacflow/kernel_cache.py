@@ -62,6 +62,7 @@ _RECORD = "entry.json"
 #: Names the cache writes in its directory, and the only ones it ever removes (the directory may
 #: be one the user chose, holding other things): entries, their temporaries, removed entries.
 _ENTRY = re.compile(r"^[a-z0-9_]+-[0-9a-f]{24}$")
+_KIND = re.compile(r"^[a-z0-9_]+$")
 _LEFTOVER = re.compile(r"^\.(?:[a-z0-9_]+-[0-9a-f]{24}\..+|trash-[a-z0-9_]+-[0-9a-f]{24}-\d+)$")
 
 
@@ -95,6 +96,8 @@ class CacheEntry:
 
 def _key(kind: str, parameters: Mapping[str, Any]) -> str:
     """Entry name: the kind and a hash of the canonical JSON of its parameters."""
+    if not _KIND.match(kind):  # else the listing, eviction and clearing would not see it
+        raise ValueError(f"cache kind {kind!r}: lower-case letters, digits and '_' only")
     text = json.dumps({"kind": kind, "parameters": parameters}, sort_keys=True)
     return f"{kind}-{hashlib.sha256(text.encode()).hexdigest()[:24]}"
 

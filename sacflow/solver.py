@@ -79,6 +79,8 @@ log = logging.getLogger(__name__)
 _GROWTH = 1.5
 #: Smallest scale of a relative residual (guards the division when everything is zero).
 _TINY = 1e-300
+#: Version of the pressure-to-stress kernels in the disk cache: bump it when their code changes.
+CONTACT_STRESS_VERSION = 1
 #: Relative step of the finite-difference Jacobian of the coupled fixed point (see
 #: Simulation._fixed_point): ε = FD_STEP · max|x| / max|v|. Well above the noise of a contact
 #: solve converged to 1e-10 (which then perturbs J v by about 1e-4 of its size, below the
@@ -260,6 +262,7 @@ class Simulation:
         self.pressure_stress_op = Convolution(
             stresses, self.body_shape, self.body_shape, threads=self.threads,
             block=6,  # one depth layer (six components) per inverse transform
+            cache=("contact_stress", self._contact_stress_parameters()),
         )
         self.eigen: HalfSpaceEigenstrain | None = None
         if self.plastic:  # elastic runs do without it (and without numba)
@@ -269,6 +272,20 @@ class Simulation:
                 (*self.body_shape, self.nz), (dx1, dx2, self.dz), self.E, self.nu,
                 threads=self.threads,
             )
+
+    def _contact_stress_parameters(self) -> dict[str, Any]:
+        """Everything the pressure-to-stress kernels depend on (their disk-cache key).
+
+        Love's rectangles at the layer centres (cells, layer thickness, layers, ν) and, with
+        friction, the traction per unit pressure; the grid shapes are added by the operator.
+        """
+        traction = self.traction
+        return {
+            "version": CONTACT_STRESS_VERSION, "cell": [float(c) for c in self.cell],
+            "dz": float(self.dz), "nz": int(self.nz), "nu": float(self.nu),
+            "traction": None if traction is None else [
+                float(v) for v in np.ravel(np.asarray(traction, dtype=float))],
+        }
 
     @property
     def _eigen(self) -> HalfSpaceEigenstrain:

@@ -51,6 +51,32 @@ def test_operator_from_the_cache_equals_the_computed_one_bit_for_bit(cache):
     assert len(kernel_cache.list_entries(cache)) == 2
 
 
+def test_contact_stress_operator_from_the_cache_equals_the_computed_one(cache):
+    """The pressure-to-stress kernels are cached too: a second simulation of the same grid
+    loads them (memory-mapped) and its stresses are the same bit for bit; another case's
+    kernels (friction adds the traction's stress) are another entry."""
+    from pathlib import Path
+
+    from sacflow.config import load_case
+    from sacflow.solver import Simulation
+
+    config = Path(__file__).resolve().parents[1] / "configs" / "rolling-cycles-shakedown.toml"
+    small = ["grid.nx=12", "grid.ny=12", "grid.nz=4", "load_path.1.steps=2"]
+    first = Simulation(load_case(config, small))
+    kinds = sorted(e.kind for e in kernel_cache.list_entries(cache))
+    assert kinds == ["contact_stress", "eigenstrain"]
+    second = Simulation(load_case(config, small))
+    spectra = second.pressure_stress_op.spectra
+    assert isinstance(spectra, np.memmap) or isinstance(spectra.base, np.memmap)
+    np.testing.assert_array_equal(spectra, first.pressure_stress_op.spectra)
+    pressure = np.random.default_rng(2).random(first.body_shape)
+    np.testing.assert_array_equal(second._pressure_stress_op_apply(pressure),
+                                  first._pressure_stress_op_apply(pressure))
+    Simulation(load_case(config, [*small, "friction.coefficient=0.2"]))
+    kinds = sorted(e.kind for e in kernel_cache.list_entries(cache))
+    assert kinds == ["contact_stress", "contact_stress", "eigenstrain"]
+
+
 def test_hit_does_not_compute(cache):
     calls = []
 
@@ -65,6 +91,8 @@ def test_hit_does_not_compute(cache):
     np.testing.assert_array_equal(first["b"], second["b"])
     kernel_cache.cached_arrays("test", {"n": 2}, compute)
     assert len(calls) == 2
+    with pytest.raises(ValueError, match="lower-case"):
+        kernel_cache.cached_arrays("not-listed", {"n": 1}, compute)
 
 
 def _store_slowly(root: str, barrier, queue) -> None:

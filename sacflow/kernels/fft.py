@@ -23,7 +23,7 @@ from __future__ import annotations
 import functools
 import os
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -463,6 +463,11 @@ class Convolution:
         transform's buffers small, ``block`` padded grids instead of ``n_out_comp`` (the
         pressure-to-stress operator of a 128 × 128 × 16 grid: 6 MB instead of 100 MB, which
         also stays in cache), for the same FFT work.
+    cache : (str, mapping), optional
+        Kind and parameters under which the kernel spectra are kept in the disk cache
+        (:func:`sacflow.kernel_cache.cached_arrays`); the parameters must hold everything the
+        coefficients depend on (the grid shapes and offset are added here). Default: computed
+        every time.
 
     Notes
     -----
@@ -479,6 +484,7 @@ class Convolution:
         offset: Sequence[int] | None = None,
         threads: int | None = None,
         block: int | None = None,
+        cache: tuple[str, Mapping[str, Any]] | None = None,
     ):
         self.in_shape = tuple(int(n) for n in in_shape)
         self.out_shape = tuple(int(n) for n in out_shape)
@@ -494,27 +500,26 @@ class Convolution:
                 self.in_shape, self.out_shape, self.offset, self.padded, strict=True
             )
         ]
-        grids = np.meshgrid(*d, indexing="ij", sparse=True)
-        valid = np.ones(self.padded, dtype=bool)
-        for g, no, o in zip(grids, self.out_shape, self.offset, strict=True):
-            valid &= g <= o + no - 1
-        coeffs = np.asarray(coefficients(*grids), dtype=float)
-        self.n_out, self.n_in = coeffs.shape[:2]
+
+        def compute() -> dict[str, np.ndarray]:
+            return {"spectra": self._kernel_spectra(coefficients, d, block, threads)}
+
+        if cache is None:
+            spectra = compute()["spectra"]
+        else:
+            from sacflow.kernel_cache import cached_arrays
+
+            kind, parameters = cache
+            key = {**parameters, "in_shape": list(self.in_shape),
+                   "out_shape": list(self.out_shape), "offset": [int(o) for o in self.offset],
+                   "padded": list(self.padded)}
+            spectra = cached_arrays(kind, key, compute)["spectra"]
+        self.spectra = spectra
+        self.spectra.flags.writeable = False
+        self.n_out, self.n_in = self.spectra.shape[:2]
         self.block = min(block or self.n_out, self.n_out)
         self._blocks = [(k, min(k + self.block, self.n_out))
                         for k in range(0, self.n_out, self.block)]
-        coeffs = coeffs.reshape(self.n_out * self.n_in, *self.padded)
-        batch = RealFFT((self.block * self.n_in, *self.padded), self.ndim, threads, one_shot=True)
-        self.spectra = np.empty((self.n_out * self.n_in, *batch.spectrum_shape[1:]), complex)
-        for k0, k1 in self._blocks:  # spectra of one block of output components at a time
-            rows = slice(k0 * self.n_in, k1 * self.n_in)
-            real = batch.real[: rows.stop - rows.start]
-            real[...] = 0.0
-            np.copyto(real, coeffs[rows], where=valid)  # zero where the offset is not used
-            np.divide(batch.forward()[: rows.stop - rows.start], batch.size, out=self.spectra[rows])
-        del coeffs, batch
-        self.spectra = self.spectra.reshape(self.n_out, self.n_in, *self.spectra.shape[1:])
-        self.spectra.flags.writeable = False
         self._in_window = (slice(None), *(slice(0, n) for n in self.in_shape))
         self._out_window = (slice(None),) + tuple(
             slice(o % length, o % length + no)
@@ -540,6 +545,31 @@ class Convolution:
             (self.block, *self.padded), self.ndim, threads,
             out_extent=self.out_shape if prefix_out else None,
         )
+
+    def _kernel_spectra(self, coefficients: Callable[..., np.ndarray], d: list[np.ndarray],
+                        block: int | None, threads: int | None) -> np.ndarray:
+        """Spectra (n_out, n_in, *spectrum) of the coefficients at the wrap-around offsets ``d``.
+
+        Zero where an offset is not used; divided by the padded size (the inverse transform
+        is unnormalised). One block of output components is transformed at a time.
+        """
+        grids = np.meshgrid(*d, indexing="ij", sparse=True)
+        valid = np.ones(self.padded, dtype=bool)
+        for g, no, o in zip(grids, self.out_shape, self.offset, strict=True):
+            valid &= g <= o + no - 1
+        coeffs = np.asarray(coefficients(*grids), dtype=float)
+        n_out, n_in = coeffs.shape[:2]
+        width = min(block or n_out, n_out)
+        coeffs = coeffs.reshape(n_out * n_in, *self.padded)
+        batch = RealFFT((width * n_in, *self.padded), self.ndim, threads, one_shot=True)
+        spectra = np.empty((n_out * n_in, *batch.spectrum_shape[1:]), complex)
+        for k0 in range(0, n_out, width):  # spectra of one block of output components at a time
+            rows = slice(k0 * n_in, min(k0 + width, n_out) * n_in)
+            real = batch.real[: rows.stop - rows.start]
+            real[...] = 0.0
+            np.copyto(real, coeffs[rows], where=valid)  # zero where the offset is not used
+            np.divide(batch.forward()[: rows.stop - rows.start], batch.size, out=spectra[rows])
+        return spectra.reshape(n_out, n_in, *spectra.shape[1:])
 
     @property
     def nbytes(self) -> int:
