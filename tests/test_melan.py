@@ -250,6 +250,9 @@ def test_melan_stage_refuses_what_it_does_not_cover():
     with pytest.raises(CompareError, match="friction"):
         _check_case(load_case(ROOT / "configs" / "rolling-cycles-shakedown.toml",
                               ["friction.coefficient=0.2"]))
+    with pytest.raises(CompareError, match="along x1"):
+        _check_case(load_case(ROOT / "configs" / "rolling-cycles-shakedown.toml",
+                              ["load_path.1.direction=[0.0, 1.0]"]))
 
 
 def test_shakedown_bounds_pipeline_quick(tmp_path, capsys):
