@@ -50,9 +50,9 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.interpolate import BSpline
 from scipy.optimize import minimize
-from scipy.signal import fftconvolve
 
-from sacflow.kernels.surface import rectangle_stress_grid
+from sacflow.kernels.fft import Convolution
+from sacflow.kernels.shear import surface_load_stress_coefficients
 from sacflow.reference import hertz_subsurface_stress, line_contact_stress
 
 __all__ = [
@@ -301,9 +301,10 @@ def melan_bound(elastic: NDArray[np.float64], field: SteadyResidualField,
 
 
 def _solve(elastic: NDArray[np.float64], x2: NDArray[np.float64], x3: NDArray[np.float64],
-           half_width: float, depth: float, intervals: tuple[int, int],
+           half_width: float, depth: float, knot_step: float,
            kind: FieldClass) -> MelanBound:
     """:func:`melan_bound` on a class; the whole class starts from the depth-only optimum."""
+    intervals = (max(1, round(2 * half_width / knot_step)), max(1, round(depth / knot_step)))
     depth_only = SteadyResidualField(x2, x3, half_width, depth, intervals, "depth")
     first = melan_bound(elastic, depth_only)
     if kind == "depth":
@@ -357,8 +358,7 @@ def rolling_shakedown_bound(
         x2 = np.arange(-half_width, half_width + 0.5 * sample_step, sample_step)
         X1, X2, X3 = np.meshgrid(x1, x2, x3, indexing="ij")
         elastic = hertz_subsurface_stress(X1, X2, X3, 1.0, 1.0, nu)
-    intervals = (max(1, round(2 * half_width / knot_step)), max(1, round(depth / knot_step)))
-    return _solve(elastic, x2, x3, half_width, depth, intervals, kind)
+    return _solve(elastic, x2, x3, half_width, depth, knot_step, kind)
 
 
 def pressure_stress(pressure: NDArray[np.float64], cell: tuple[float, float],
@@ -366,8 +366,9 @@ def pressure_stress(pressure: NDArray[np.float64], cell: tuple[float, float],
                     ) -> NDArray[np.float64]:
     """Elastic stress of a cell-wise uniform surface pressure, at cell centres around it.
 
-    Superposition of Love's rectangles (:func:`sacflow.kernels.surface.rectangle_stress_grid`)
-    by FFT convolution, exact for the piecewise-constant pressure.
+    Superposition of Love's rectangles by FFT convolution, exact for the piecewise-constant
+    pressure: the operator and coefficients of the solver's contact stress
+    (:func:`sacflow.kernels.shear.surface_load_stress_coefficients`).
 
     Parameters
     ----------
@@ -388,15 +389,11 @@ def pressure_stress(pressure: NDArray[np.float64], cell: tuple[float, float],
         Stress in the unit of ``pressure`` at the centres of the padded grid.
     """
     m1, m2 = pressure.shape
-    o1 = np.arange(-(m1 - 1) - pad[0], m1 + pad[0]) * cell[0]
-    o2 = np.arange(-(m2 - 1) - pad[1], m2 + pad[1]) * cell[1]
-    out = np.empty((m1 + 2 * pad[0], m2 + 2 * pad[1], len(x3), 6))
-    for k, z in enumerate(x3):
-        kernel = rectangle_stress_grid(o1, o2, float(z), cell[0] / 2, cell[1] / 2, nu)
-        for c in range(6):
-            full = fftconvolve(pressure, kernel[..., c], mode="full")
-            out[:, :, k, c] = full[m1 - 1:2 * m1 - 1 + 2 * pad[0], m2 - 1:2 * m2 - 1 + 2 * pad[1]]
-    return out
+    out_shape = (m1 + 2 * pad[0], m2 + 2 * pad[1])
+    operator = Convolution(surface_load_stress_coefficients(cell, x3, nu), (m1, m2), out_shape,
+                           offset=(-pad[0], -pad[1]), block=6)
+    stress = operator(pressure[None]).reshape(len(x3), 6, *out_shape)
+    return np.moveaxis(stress, (0, 1), (2, 3))
 
 
 def moving_pressure_bound(
@@ -426,6 +423,5 @@ def moving_pressure_bound(
     x2 = (np.arange(m2 + 2 * pad2) - (m2 + 2 * pad2 - 1) / 2) * cell[1]
     inside = np.abs(x2) <= half_width * a
     elastic, x2 = elastic[:, inside], x2[inside]
-    intervals = (max(1, round(2 * half_width / knot_step)), max(1, round(depth / knot_step)))
-    bound = _solve(elastic, x2 / a, x3 / a, half_width, depth, intervals, "full")
+    bound = _solve(elastic, x2 / a, x3 / a, half_width, depth, knot_step, "full")
     return replace(bound, x2=x2, x3=x3)

@@ -47,8 +47,8 @@ from sacflow.initial import (
     map_state,
 )
 from sacflow.kernels.fft import Convolution
-from sacflow.kernels.shear import traction_stress
-from sacflow.kernels.surface import rectangle_displacement, rectangle_stress_grid
+from sacflow.kernels.shear import surface_load_stress_coefficients
+from sacflow.kernels.surface import rectangle_displacement
 from sacflow.kinematic import KinematicTangent, kinematic_from_schema, kinematic_return
 from sacflow.layout import StepPlan, auto_depth, body_grid, plan_steps
 from sacflow.nonlinear import (
@@ -243,18 +243,7 @@ class Simulation:
         self.compliance = Convolution(love, window, window, threads=self.threads)
         z = (np.arange(self.nz) + 0.5) * self.dz
 
-        traction = self.traction
-
-        def stresses(d1, d2):
-            # One layer at a time: the closed form's temporaries stay small (in cache).
-            # d1, d2: offsets along x1 and x2 (a sparse grid), folded onto the corner lattice.
-            out = np.empty((self.nz, 6, *np.broadcast_shapes(d1.shape, d2.shape)))
-            for k, depth in enumerate(z):
-                s = rectangle_stress_grid(d1.ravel() * dx1, d2.ravel() * dx2, depth, h1, h2, nu)
-                if traction is not None:  # the traction μ p d rides on the pressure
-                    s += traction_stress(d1 * dx1, d2 * dx2, depth, h1, h2, nu, traction)
-                out[k] = np.moveaxis(s, -1, 0)
-            return out.reshape(6 * self.nz, 1, *out.shape[2:])
+        stresses = surface_load_stress_coefficients(self.cell, z, nu, self.traction)
 
         # Pressure (embedded in the body grid at the window's place) -> stress on the body grid:
         # one operator serves every load position. With a shear traction q = μ p d its kernel
@@ -283,8 +272,7 @@ class Simulation:
         return {
             "version": CONTACT_STRESS_VERSION, "cell": [float(c) for c in self.cell],
             "dz": float(self.dz), "nz": int(self.nz), "nu": float(self.nu),
-            "traction": None if traction is None else [
-                float(v) for v in np.ravel(np.asarray(traction, dtype=float))],
+            "traction": None if traction is None else [float(t) for t in traction],
         }
 
     @property
@@ -356,13 +344,20 @@ class Simulation:
         geometry = geometry - self._h_offset
         contact_iterations = 0
 
+        fixed = self._fixed_gap_displacement
+        fixed_result: ContactResult | None = None
+
         def solve(u_r: np.ndarray) -> ContactResult:
-            nonlocal contact_iterations
-            if self._fixed_gap_displacement is not None:
-                u_r = self._fixed_gap_displacement
+            nonlocal contact_iterations, fixed_result
+            if fixed is not None:
+                if fixed_result is not None:  # the gap does not change within the increment
+                    return fixed_result
+                u_r = fixed
             result = self._contact(geometry + u_r[sl], plan.load, step)
             contact_iterations += result.iterations
             self._pressure = result.pressure
+            if fixed is not None:
+                fixed_result = result
             return result
 
         if not self.plastic:

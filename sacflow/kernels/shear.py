@@ -75,7 +75,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from sacflow.kernels.surface import _CORNERS, _as_float, _check_depth, _safe_div
 
-__all__ = ["cerruti_stress", "rectangle_shear_stress", "traction_stress"]
+__all__ = ["cerruti_stress", "rectangle_shear_stress", "surface_load_stress_coefficients",
+           "traction_stress"]
 
 #: Component order after exchanging x1 and x2: (11, 22, 33, 12, 13, 23) -> (22, 11, 33, 12, 23,
 #: 13).
@@ -243,3 +244,34 @@ def traction_stress(
         swapped = rectangle_shear_stress(x2, x1, x3, half2, half1, nu)[..., _SWAP_AXES]
         out = out + t2 * swapped
     return out
+
+
+def surface_load_stress_coefficients(
+    cell: tuple[float, float], depths: NDArray[np.float64], nu: float,
+    traction: tuple[float, float] | None = None,
+):
+    """Influence coefficients of a cell's unit pressure on the stress at a set of depths.
+
+    For :class:`sacflow.kernels.fft.Convolution`: ``coefficients(d1, d2)`` at integer cell
+    offsets (sparse grids) returns ``(6 · len(depths), 1, *shape)``, layer-major, six
+    components per layer: Love's rectangle (:func:`sacflow.kernels.surface.rectangle_stress_grid`)
+    and, with a ``traction`` (t1, t2) per unit pressure, its shear traction's stresses
+    (:func:`traction_stress`). One layer at a time, so the closed form's temporaries stay small.
+    """
+    from sacflow.kernels.surface import rectangle_stress_grid
+
+    dx1, dx2 = cell
+    h1, h2 = dx1 / 2, dx2 / 2
+    depths = np.asarray(depths, dtype=float)
+
+    def coefficients(d1: np.ndarray, d2: np.ndarray) -> np.ndarray:
+        out = np.empty((depths.size, 6, *np.broadcast_shapes(d1.shape, d2.shape)))
+        for k, depth in enumerate(depths):
+            s = rectangle_stress_grid(d1.ravel() * dx1, d2.ravel() * dx2, float(depth), h1, h2,
+                                      nu)
+            if traction is not None:
+                s += traction_stress(d1 * dx1, d2 * dx2, depth, h1, h2, nu, traction)
+            out[k] = np.moveaxis(s, -1, 0)
+        return out.reshape(6 * depths.size, 1, *out.shape[2:])
+
+    return coefficients
