@@ -20,13 +20,17 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from sacflow.errors import SacflowError
 from sacflow.melan import MelanBound, rolling_shakedown_bound
+from sacflow.outdir import check_output_dir
 
 SQRT3 = float(np.sqrt(3.0))
 #: (contact, class, settings) of the report; lengths in contact radii (half-widths).
@@ -47,6 +51,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, default=None, help="folder for the JSON and plot")
     parser.add_argument("--quick", action="store_true", help="coarse settings (a smoke run)")
     args = parser.parse_args(argv)
+    if args.out is not None:
+        try:  # a bad folder is reported now, not after minutes of work
+            check_output_dir(args.out)
+        except SacflowError as exc:
+            parser.error(str(exc))
     rows, results = [], []
     for contact, kind, settings in CASES:
         if args.quick:
@@ -65,9 +74,21 @@ def main(argv: list[str] | None = None) -> int:
         results.append(bound)
     if args.out is not None:
         args.out.mkdir(parents=True, exist_ok=True)
-        (args.out / "shakedown_bounds.json").write_text(json.dumps(rows, indent=1) + "\n")
-        plot(rows, results, args.out / "shakedown_bounds.png")
+        _write_atomically(args.out / "shakedown_bounds.json",
+                          lambda tmp: tmp.write_text(json.dumps(rows, indent=1) + "\n"))
+        _write_atomically(args.out / "shakedown_bounds.png",
+                          lambda tmp: plot(rows, results, tmp))
     return 0
+
+
+def _write_atomically(path: Path, write: Callable[[Path], object]) -> None:
+    """Write ``path`` under a temporary name, then rename: never a half-written file."""
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
 
 
 def plot(rows: list[dict[str, Any]], results: list[MelanBound], path: Path) -> None:
@@ -104,7 +125,7 @@ def plot(rows: list[dict[str, Any]], results: list[MelanBound], path: Path) -> N
         right.set(xlabel="x2 / a (across the track)", ylabel="depth x3 / a",
                   title=f"Safe state at p0 = {row['shakedown_p0_over_k_at_least']:.2f} k "
                   "(white: within 1 % of yield)")
-    fig.savefig(path, dpi=120)
+    fig.savefig(path, dpi=120, format="png")
 
 
 if __name__ == "__main__":
