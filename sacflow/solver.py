@@ -266,11 +266,13 @@ class Simulation:
         """Everything the pressure-to-stress kernels depend on (their disk-cache key).
 
         Love's rectangles at the layer centres (cells, layer thickness, layers, ν) and, with
-        friction, the traction per unit pressure; the grid shapes are added by the operator.
+        friction, the traction per unit pressure; ``shape`` (body grid and layers) is what
+        ``sacflow cache`` lists; the operator adds its own grid shapes.
         """
         traction = self.traction
         return {
-            "version": CONTACT_STRESS_VERSION, "cell": [float(c) for c in self.cell],
+            "version": CONTACT_STRESS_VERSION, "shape": [*self.body_shape, int(self.nz)],
+            "cell": [float(c) for c in self.cell],
             "dz": float(self.dz), "nz": int(self.nz), "nu": float(self.nu),
             "traction": None if traction is None else [float(t) for t in traction],
         }

@@ -63,8 +63,10 @@ def test_contact_stress_operator_from_the_cache_equals_the_computed_one(cache):
     config = Path(__file__).resolve().parents[1] / "configs" / "rolling-cycles-shakedown.toml"
     small = ["grid.nx=12", "grid.ny=12", "grid.nz=4", "load_path.1.steps=2"]
     first = Simulation(load_case(config, small))
-    kinds = sorted(e.kind for e in kernel_cache.list_entries(cache))
-    assert kinds == ["contact_stress", "eigenstrain"]
+    entries = kernel_cache.list_entries(cache)
+    assert sorted(e.kind for e in entries) == ["contact_stress", "eigenstrain"]
+    listed = {e.kind: e.parameters["shape"] for e in entries}  # what `sacflow cache` shows
+    assert listed["contact_stress"] == [*first.body_shape, first.nz] == listed["eigenstrain"]
     second = Simulation(load_case(config, small))
     spectra = second.pressure_stress_op.spectra
     assert isinstance(spectra, np.memmap) or isinstance(spectra.base, np.memmap)
