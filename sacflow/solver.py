@@ -179,7 +179,8 @@ class Simulation:
         self.coords = GridCoords(x1, x2, x3)
         self.threads = case.solver.fft_threads
         self._heights = _measured_heights(case, surface)
-        self._build_operators()
+        with single_threaded_blas():  # the kernels' set-up: see sacflow.threads
+            self._build_operators()
         shape = (*self.body_shape, self.nz)
         self.plastic_strain = np.zeros((*shape, 6))
         # Initial state (schema: body.initial_residual_stress, body.initial_hardening).

@@ -3,6 +3,7 @@ concurrent writers, damaged entries, the size limit, clearing, where it lives, t
 
 from __future__ import annotations
 
+import errno
 import multiprocessing as mp
 import os
 import time
@@ -79,6 +80,35 @@ def test_contact_stress_operator_from_the_cache_equals_the_computed_one(cache):
     assert kinds == ["contact_stress", "contact_stress", "eigenstrain"]
 
 
+@pytest.mark.parametrize("n", [0, 1, 511, 1024, 5000])
+@pytest.mark.parametrize("route", ["direct", "no O_DIRECT", "refused"])
+def test_array_files_are_whole_and_block_aligned(tmp_path, monkeypatch, n, route):
+    """The arrays' files, written past the page cache or not: numpy reads them back bit for bit,
+    the data starts on a 4096-byte block, nothing follows it; small bounce chunks so that the
+    writes cross chunk and block boundaries."""
+    monkeypatch.setattr(kernel_cache, "_DIRECT_CHUNK", 3 * 4096)
+    if route == "no O_DIRECT":
+        monkeypatch.delattr(os, "O_DIRECT", raising=False)
+    elif route == "refused":
+        def refuse(*args):
+            raise OSError(errno.EINVAL, "O_DIRECT refused")
+
+        monkeypatch.setattr(kernel_cache, "_copy_out", refuse)
+    rng = np.random.default_rng(n)
+    for array in (rng.standard_normal(n), rng.standard_normal((3, n)).astype(np.float32),
+                  rng.standard_normal((n, 2)) + 1j):
+        path = tmp_path / "a.npy"
+        kernel_cache._write_npy(path, np.ascontiguousarray(array))
+        with open(path, "rb") as fh:
+            assert np.lib.format.read_magic(fh) == (1, 0)
+            np.lib.format.read_array_header_1_0(fh)
+            assert fh.tell() == 4096
+        assert path.stat().st_size == 4096 + array.nbytes
+        loaded = np.load(path, mmap_mode="r")
+        assert loaded.dtype == array.dtype and loaded.shape == array.shape
+        assert np.array_equal(loaded, array)
+
+
 def test_hit_does_not_compute(cache):
     calls = []
 
@@ -153,9 +183,12 @@ def test_record_of_other_parameters_is_not_used(cache):
 
 
 def test_least_recently_used_entries_go_beyond_the_limit(cache, monkeypatch):
-    size = sum(a.nbytes for a in arrays().values())
+    kernel_cache.cached_arrays("test", {"n": 0}, arrays)
+    (entry,) = kernel_cache.list_entries(cache)
+    size = entry.nbytes  # on disk: the arrays, their headers and the record
     monkeypatch.setenv("SACFLOW_CACHE_MAX_BYTES", str(int(2.5 * size)))
-    for n in range(3):
+    time.sleep(0.01)
+    for n in range(1, 3):
         kernel_cache.cached_arrays("test", {"n": n}, arrays)
         time.sleep(0.01)
     kernel_cache.cached_arrays("test", {"n": 0}, arrays)  # a hit: now the most recent

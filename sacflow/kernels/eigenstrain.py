@@ -76,8 +76,8 @@ from sacflow.kernels.fft import (
     RealToReal,
     default_threads,
     padded_length,
-    wraparound_offsets,
 )
+from sacflow.kernels.folded_fft import folded_spectra
 from sacflow.kernels.residual_displacement import cuboid_surface_displacement
 from sacflow.kernels.surface import rectangle_stress_grid
 
@@ -102,6 +102,9 @@ WEIGHT = np.array([1.0, 1.0, 1.0, 2.0, 2.0, 2.0])
 KERNEL_VERSION = 3
 #: Bytes of the contiguous blocks in which the pair kernels are transformed along depth.
 _DEPTH_BLOCK_BYTES = 4 << 20
+#: Planes of 21 pair kernels alive at once in a thread of the set-up (the kernels, the parity
+#: classes' copies and transforms of :func:`~sacflow.kernels.folded_fft.folded_spectra`).
+_PLANE_TEMPORARIES = 5
 #: Blocks of that size alive at once in a depth transform (the block, a transform's input
 #: and output, and a slice's copy).
 _DEPTH_TEMPORARIES = 4
@@ -126,19 +129,6 @@ def _raise_if_broken(mismatch: float, scale: float, what: str) -> None:
     if mismatch > 1e-9 * max(scale, 1e-300):  # pragma: no cover - not a user error
         raise RuntimeError(f"eigenstrain kernels violate {what} (mismatch {mismatch:.3e} "
                            f"against values up to {scale:.3e})")
-
-
-def _check_mirror(spectra: np.ndarray, signs: np.ndarray) -> None:
-    """Check that row ``L1 − k1`` of lateral spectra is ``signs`` times row ``k1``.
-
-    ``spectra`` (L1, L2h, ...) with ``signs`` broadcasting over its trailing axes: the parity
-    in x1 of each kernel, on which the half storage of the spectra rests (pair_products).
-    """
-    L1 = spectra.shape[0]
-    rows = np.arange(1, (L1 + 1) // 2)
-    mismatch = spectra[L1 - rows] - signs * spectra[rows]
-    _raise_if_broken(float(np.abs(mismatch).max()), float(np.abs(spectra).max()),
-                     "their parity in x1")
 
 
 def _check_depth_parity(below: np.ndarray, above: np.ndarray) -> None:
@@ -173,21 +163,24 @@ def _depth_spectra(kernels: np.ndarray, even: int, scale: np.ndarray,
         kernels[:, start:start + rows] = block
 
 
-def _depth_projection(layers: np.ndarray, N: int, odd: bool, workers: int = 1) -> np.ndarray:
+def _depth_projection(layers: np.ndarray, N: int, odd: bool, factor: np.ndarray,
+                      out: np.ndarray, workers: int = 1) -> None:
     """Project layers on the depth basis: ``Σ_j cos`` (even) or ``sin`` (odd) ``(π m (j + ½) / N)``.
 
-    Layers j < n3 along axis 0, depth frequencies m = 0 … N out: half a DCT-II (even) or DST-II
-    (odd, frequencies 1 … N) of the layers zero-padded to N. Times 2 it is the analysis of
-    FFTW's REDFT10/RODFT10; with weights 1, 2, …, 2, 1 and 1/(2N) the synthesis of
-    REDFT01/RODFT01.
+    Layers j < n3 along axis 0, depth frequencies m = 0 … N into ``out`` (N + 1 planes), each
+    multiplied by ``factor[m]``: half a DCT-II (even) or DST-II (odd, frequencies 1 … N) of the
+    layers zero-padded to N. Times 2 it is the analysis of FFTW's REDFT10/RODFT10; with weights
+    1, 2, …, 2, 1 and 1/(2N) the synthesis of REDFT01/RODFT01.
     """
-    out = np.zeros((N + 1, *layers.shape[1:]), dtype=layers.dtype)
+    shape = (-1,) + (1,) * (layers.ndim - 1)
     if odd:
-        out[1:] = scipy.fft.dst(layers, type=2, n=N, axis=0, workers=workers)
+        out[0] = 0.0
+        spectrum = scipy.fft.dst(layers, type=2, n=N, axis=0, workers=workers)
+        np.multiply(spectrum, 0.5 * factor[1:].reshape(shape), out=out[1:])
     else:
-        out[:N] = scipy.fft.dct(layers, type=2, n=N, axis=0, workers=workers)
-    out *= 0.5
-    return out
+        out[N] = 0.0
+        spectrum = scipy.fft.dct(layers, type=2, n=N, axis=0, workers=workers)
+        np.multiply(spectrum, 0.5 * factor[:N].reshape(shape), out=out[:N])
 
 
 def _padded(shape: Sequence[int]) -> tuple[int, int, int]:
@@ -210,25 +203,23 @@ def operator_bytes(shape: Sequence[int]) -> int:
     return int((N + 1) * (stored + buffer))
 
 
-def setup_bytes(shape: Sequence[int]) -> int:
+def setup_bytes(shape: Sequence[int], threads: int | None = None) -> int:
     """Bytes the set-up of a :class:`HalfSpaceEigenstrain` of ``shape`` needs besides them.
 
-    The layer spectra (3 × 6 × n3 complex L1 × (L2 // 2 + 1) planes) and the temporaries of
-    their checks and depth projections are freed before the pair spectra are made: they add
-    what they exceed the pair spectra by. Then the per-plane transform of the pair kernels (21
-    real planes and spectra) and the blocks of their depth transforms. Measured (tracemalloc):
-    41, 135 and 316 MiB at 64 × 64 × 32, 96 × 96 × 48 and 128 × 128 × 64 cuboids.
+    The layer kernels (3 × 6 × n3 real planes of the stored spectra's size) and a depth
+    projection's temporary (N such planes) are freed before the pair spectra are made: they add
+    what they exceed the pair spectra by. Then, per thread, a plane of the 21 pair kernels and
+    the copies of its lateral transforms, and the blocks of the depth transforms. Measured
+    (tracemalloc, two threads): 11, 24 and 43 MiB at 64 × 64 × 32, 96 × 96 × 48 and
+    128 × 128 × 64 cuboids.
     """
-    n1, n2, n3 = shape
     L1, L2, N = _padded(shape)
-    plane = 16 * L1 * (L2 // 2 + 1)
-    pairs = 21 * 8 * (L1 // 2 + 1) * (L2 // 2 + 1) * (N + 1)
-    # the layer spectra, the check of one component's (3 n3 real planes), a projection's two
-    # (N + 1)-plane complex temporaries on half the rows
-    checks = 3 * n3 * plane // 2 + 2 * 16 * (N + 1) * (L1 // 2 + 1) * (L2 // 2 + 1)
-    layers = max(0, 18 * n3 * plane + checks - pairs)
+    plane = 8 * (L1 // 2 + 1) * (L2 // 2 + 1)  # one real plane of stored spectra
+    pairs = 21 * plane * (N + 1)
+    layers = max(0, (18 * shape[2] + N) * plane - pairs)
+    per_thread = _PLANE_TEMPORARIES * 21 * plane
     blocks = _DEPTH_TEMPORARIES * min(_DEPTH_BLOCK_BYTES, pairs)  # no block beyond the array
-    return int(layers + 21 * (plane + 8 * L1 * L2) + blocks)
+    return int(layers + int(threads or default_threads()) * per_thread + blocks)
 
 
 def kernel_bytes(shape: Sequence[int]) -> int:
@@ -343,165 +334,143 @@ class HalfSpaceEigenstrain:
                 "spacing": list(self.spacing), "E": self.E, "nu": self.nu}
 
     def _spectra(self, threads: int | None) -> dict[str, np.ndarray]:
-        """Compute the kernel spectra (a cache miss)."""
-        surface, correction = self._layer_kernels(threads)
-        return {"pairs": self._pair_kernels(threads), "surface": surface,
-                "correction": correction}
+        """Compute the kernel spectra (a cache miss).
 
-    def _offsets(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Lateral wrap-around offsets (x1, x2) [m] and the mask of the offsets used."""
+        BLAS on one thread: its calls here (the corner sums' small matrix products) are short,
+        and its spinning worker threads would take the cores from the plane loops' threads.
+        """
+        from sacflow.threads import single_threaded_blas
+
+        with single_threaded_blas():
+            surface, correction = self._layer_kernels(threads)
+            return {"pairs": self._pair_kernels(threads), "surface": surface,
+                    "correction": correction}
+
+    def _folded_offsets(self) -> tuple[np.ndarray, np.ndarray]:
+        """Lateral offsets [m] ``k d`` for ``k = 0 … n − 1``: those a kernel is needed at.
+
+        The kernels are even or odd along x1 and x2: their spectra follow from these offsets
+        (:func:`~sacflow.kernels.folded_fft.folded_spectra`); the larger offsets of the
+        wrap-around period are not used by the convolution (zero).
+        """
         n1, n2, _ = self.shape
         d1, d2, _ = self.spacing
-        _, L1, L2 = self.padded
-        o1 = wraparound_offsets(n1, n1, 0, L1)
-        o2 = wraparound_offsets(n2, n2, 0, L2)
-        used = (np.abs(o1) <= n1 - 1)[:, None] & (np.abs(o2) <= n2 - 1)[None, :]
-        return (o1 * d1)[:, None], (o2 * d2)[None, :], used
+        return np.arange(n1) * d1, np.arange(n2) * d2
 
     def _pair_kernels(self, threads: int | None):
-        """Compute 21 stored pair spectra (weighted, normalised), point-major (N+1, L1, L2h, 21).
+        """Compute 21 stored pair spectra (weighted, normalised), point-major (N+1, L1h, L2h, 21).
 
         The infinite-space kernel ``A_cd(x1, x2, o d3)`` is evaluated for depth offsets
         ``o = 0 … N`` (zero at ``o = N``, which no pair of cells needs) on the corner lattice
-        (:class:`~sacflow.kernels.cuboid_lattice.CuboidLattice`), one depth plane at a time,
-        and transformed laterally; then along depth by a DCT-I (even pairs) or a DST-I (odd
-        pairs), which is its full period-2N DFT up to the factor −i of odd sequences;
-        ``σ_cd = −1`` for an even output and an odd input collects those factors (module
-        notes). Reciprocity and the parity in x3 are checked.
+        (:class:`~sacflow.kernels.cuboid_lattice.CuboidLattice`) at the lateral offsets ≥ 0,
+        one depth plane at a time, and transformed laterally by the cosine and sine transforms
+        its parities allow (:func:`~sacflow.kernels.folded_fft.folded_spectra`); then along
+        depth by a DCT-I (even pairs) or a DST-I (odd pairs), which is its full period-2N DFT
+        up to the factor −i of odd sequences; ``σ_cd = −1`` for an even output and an odd
+        input collects those factors (module notes). Reciprocity and the parity in x3 are
+        checked.
         """
         d1, d2, d3 = self.spacing
         N, L1, L2 = self.padded
-        x1, x2, used = self._offsets()
+        x1, x2 = self._folded_offsets()
         # numba is imported with the first operator (not with the solver: elastic runs and
         # campaign workers of elastic cases skip its slow import).
         from sacflow.kernels.pair_products import EVEN_PAIRS, PAIRS
 
-        lattice = CuboidLattice(x1.ravel(), x2.ravel(), (d1 / 2, d2 / 2, d3 / 2), self.nu,
-                                self.mu)
-        _check_depth_parity(lattice.folded_plane(-d3), lattice.folded_plane(d3))
+        def lattice() -> CuboidLattice:
+            return CuboidLattice(x1, x2, (d1 / 2, d2 / 2, d3 / 2), self.nu, self.mu)
+
+        check = lattice()
+        _check_depth_parity(check.folded_plane(-d3), check.folded_plane(d3))
         for m in (0, 1, N // 2):  # in real space; then only the stored columns are computed
-            _check_reciprocity(lattice.folded_plane(m * d3))
-        # Mirror signs, the reciprocity weights and the mask of the offsets used, in one factor.
-        factor = lattice.unfold_signs(PAIRS) * used[..., None]
-        factor *= np.array([WEIGHT[c] for c, _ in PAIRS])
+            _check_reciprocity(check.folded_plane(m * d3))
+        weights = np.array([WEIGHT[c] for c, _ in PAIRS])
+        parities = np.array([[PARITY[a, c] * PARITY[a, d] for a in (0, 1)] for c, d in PAIRS])
         # Point-major storage (one contiguous run of 21 per spectral point), rows k1 ≤ L1 // 2
         # (the others are their mirror images): see pair_products.
-        half = L1 // 2 + 1
-        kernels = np.empty((N + 1, half, L2 // 2 + 1, 21))
+        kernels = np.empty((N + 1, L1 // 2 + 1, L2 // 2 + 1, 21))
         kernels[N] = 0.0
-        mirror = np.array([PARITY[0, c] * PARITY[0, d] for c, d in PAIRS])
-        # Pairs even in x3 have real spectra, the even–odd ones (one odd lateral axis)
-        # imaginary ones: the largest part that must vanish and the largest kept, per pair.
-        even = EVEN_PAIRS
 
-        def planes(first: int, last: int) -> np.ndarray:
-            """Kernels of the depth offsets first … last − 1 (own lattice and buffer)."""
-            own = CuboidLattice(x1.ravel(), x2.ravel(), (d1 / 2, d2 / 2, d3 / 2), self.nu,
-                                self.mu)
-            scratch = RealFFT((L1, L2, 21), 2, 1, one_shot=True, axes=(0, 1))
-            realness = np.zeros((2, 21))
+        def planes(first: int, last: int) -> None:
+            """Kernels of the depth offsets first … last − 1 (own lattice)."""
+            own = lattice()
             for m in range(first, last):
-                own.unfold(own.folded_plane(m * d3, PAIRS), factor, out=scratch.real)
-                spectrum = scratch.forward()
-                if m < 2:  # rows L1 − k1 are the mirror images of rows k1 (pair_products)
-                    _check_mirror(spectrum, mirror)
-                spectrum = spectrum[:half]
-                kernels[m, ..., :even] = spectrum.real[..., :even]
-                kernels[m, ..., even:] = spectrum.imag[..., even:]
-                np.maximum(realness[0, :even],
-                           np.abs(spectrum.imag[..., :even]).max(axis=(0, 1)),
-                           out=realness[0, :even])
-                np.maximum(realness[0, even:],
-                           np.abs(spectrum.real[..., even:]).max(axis=(0, 1)),
-                           out=realness[0, even:])
-                np.maximum(realness[1], np.abs(kernels[m]).max(axis=(0, 1)), out=realness[1])
-            return realness
+                folded = own.folded_plane(m * d3, PAIRS)
+                folded *= weights
+                kernels[m] = folded_spectra(folded, parities, (L1, L2))
 
-        # Depth offsets shared out between the threads (numpy and FFTW release the GIL); each
-        # plane is computed alone, so the result does not depend on the split.
+        # Depth offsets shared out between the threads (numpy and the transforms release the
+        # GIL); each plane is computed alone, so the result does not depend on the split.
         workers = max(1, min(self.threads, N))
         bounds = np.linspace(0, N, workers + 1).round().astype(int)
         with ThreadPoolExecutor(workers, "sacflow-kernels") as pool:
-            parts = list(pool.map(planes, bounds[:-1], bounds[1:]))
-        realness = np.max(parts, axis=0)
-        _raise_if_broken(float((realness[0] / realness[1].clip(1e-300)).max()), 1.0,
-                         "the realness their parities require")
+            list(pool.map(planes, bounds[:-1], bounds[1:]))
         sigma = np.array([-1.0 if MIRROR_SIGN[c] > 0 > MIRROR_SIGN[d] else 1.0
                           for c, d in PAIRS])
-        _depth_spectra(kernels, even, sigma / (2 * N * L1 * L2), self.threads)
+        _depth_spectra(kernels, EVEN_PAIRS, sigma / (2 * N * L1 * L2), self.threads)
         return kernels
 
     def _layer_kernels(self, threads: int | None) -> tuple[np.ndarray, np.ndarray]:
         """Compute the depth-frequency spectra of the surface terms and the traction correction.
 
         Spectra of the surface traction of 1+2 and of the surface displacement, stacked
-        (2, 6, N + 1, L1, L2h), and of the traction correction (6, N + 1, L1, L2h); real
+        (2, 6, N + 1, L1h, L2h), and of the traction correction (6, N + 1, L1h, L2h); real
         arrays, the imaginary spectra (components 13, 23) divided by i.
 
         Traction and displacement: ``Σ_d Σ_m S_d(m) K_d(m)`` over the eigenstrain's depth
         spectra ``S`` equals the layer sum ``Σ_d Σ_j T_d(j) ε̂_d(j)`` with ``ε̂_d(j)`` the inverse
         depth transform of ``S_d`` (the basis of :func:`_depth_projection`). Correction: the stress
         of a unit surface traction at each layer, transformed along depth like the output.
-        All normalised for the unnormalised inverse transforms of an application.
+        Component ``c`` of each has the lateral parities of component ``c`` (the surface
+        traction and displacement are normal, the pressure even). All normalised for the
+        unnormalised inverse transforms of an application.
         """
         n1, n2, n3 = self.shape
         d1, d2, d3 = self.spacing
         N, L1, L2 = self.padded
         h1, h2, h3 = d1 / 2, d2 / 2, d3 / 2
-        o1, o2, used = self._offsets()
-        layer = np.empty((3, 6, n3, L1, L2 // 2 + 1), dtype=complex)
+        x1, x2 = self._folded_offsets()
+        o1, o2 = x1[:, None], x2[None, :]
+        parities = PARITY[:2].T
+        half = (L1 // 2 + 1, L2 // 2 + 1)
+        layer = np.empty((3, 6, n3, *half))
         # The surface is the top face of the first layer, where the closed form is one-sided;
         # σ33 is continuous across a face, so take its limit at x3 = −η (η = 1e-10 d3).
         eta = 1e-10 * d3
         sigma33 = [(2, d) for d in range(6)]
 
         def layers(first: int, last: int) -> None:
-            """Spectra of the layers first … last − 1 (own lattice and transform buffer)."""
-            lattice = CuboidLattice(o1.ravel(), o2.ravel(), (h1, h2, h3), self.nu, self.mu)
-            signs = lattice.unfold_signs(sigma33)
-            scratch = RealFFT((6, L1, L2), 2, 1, one_shot=True)
+            """Spectra of the layers first … last − 1 (own lattice)."""
+            lattice = CuboidLattice(x1, x2, (h1, h2, h3), self.nu, self.mu)
 
             def spectra(fields: np.ndarray) -> np.ndarray:
-                scratch.real[...] = fields * used
-                return scratch.forward()
+                return np.moveaxis(folded_spectra(fields, parities, (L1, L2)), -1, 0)
 
             for j in range(first, last):
                 zj = (j + 0.5) * d3
                 # σ33 on the surface from the cuboid at depth zj and its image (13, 23 flipped)
-                # (summed on the folded offsets, then mirrored once: the same parities)
-                folded = (lattice.folded_plane(-zj - eta, sigma33)
-                          + MIRROR_SIGN * lattice.folded_plane(zj - eta, sigma33))
-                layer[0, :, j] = spectra(np.moveaxis(lattice.unfold(folded, signs), -1, 0))
-                layer[1, :, j] = spectra(np.moveaxis(
-                    cuboid_surface_displacement(o1, o2, zj, h1, h2, h3, self.nu), -1, 0))
-                layer[2, :, j] = spectra(np.moveaxis(
-                    rectangle_stress_grid(o1, o2, zj, h1, h2, self.nu), -1, 0))
+                layer[0, :, j] = spectra(lattice.folded_plane(-zj - eta, sigma33)
+                                         + MIRROR_SIGN * lattice.folded_plane(zj - eta, sigma33))
+                layer[1, :, j] = spectra(
+                    cuboid_surface_displacement(o1, o2, zj, h1, h2, h3, self.nu))
+                layer[2, :, j] = spectra(rectangle_stress_grid(x1, x2, zj, h1, h2, self.nu))
 
         # Layers shared out between the threads, as the pair kernels' depth offsets.
         workers = max(1, min(self.threads, n3))
         bounds = np.linspace(0, n3, workers + 1).round().astype(int)
         with ThreadPoolExecutor(workers, "sacflow-kernels") as pool:
             list(pool.map(layers, bounds[:-1], bounds[1:]))
-        # Each spectrum is real (components even in x3: 11 22 33 12) or imaginary (13 23) by
-        # the lateral parities; stored as the real part or the imaginary part (divided by i).
-        half = L1 // 2 + 1  # rows k1 ≤ L1 // 2: the others are their mirror images
-        _check_mirror(np.moveaxis(layer[:, :, 0], (0, 1), (-2, -1)),
-                      np.repeat(PARITY[0][None], 3, axis=0))
-        out = np.empty((3, 6, N + 1, half, L2 // 2 + 1))
+        out = np.empty((3, 6, N + 1, *half))
         weight = np.full(N + 1, 2.0)
         weight[[0, N]] = 1.0
         norm = 1.0 / (2 * N * L1 * L2)
         for c in range(6):
             odd = MIRROR_SIGN[c] < 0
-            keep, drop = (layer.imag, layer.real) if odd else (layer.real, layer.imag)
-            _raise_if_broken(float(np.abs(drop[:, c]).max()), float(np.abs(keep[:, c]).max()),
-                             "the realness their parities require")
             for k in range(3):
-                projected = _depth_projection(keep[k, c, :, :half], N, odd, self.threads)
-                if k < 2:  # inverse, for the layer sums: weights 1, 2, …, 2, 1 and 1/(2N)
-                    np.multiply(projected, (weight * norm)[:, None, None], out=out[k, c])
-                else:  # forward (type II: 2 × the projection)
-                    np.multiply(projected, 2.0 * norm, out=out[k, c])
+                # inverse, for the layer sums: weights 1, 2, …, 2, 1 and 1/(2N); forward (the
+                # correction): type II, 2 × the projection
+                factor = weight * norm if k < 2 else np.full(N + 1, 2.0 * norm)
+                _depth_projection(layer[k, c], N, odd, factor, out[k, c], self.threads)
         return out[:2], out[2]
 
     # ------------------------------------------------------------------ application
