@@ -115,6 +115,7 @@ def material_cycles(hardening: Any, E: float, nu: float, amplitude: float, cycle
         trial[:3] += lam * elastic[:3].sum()
         if kin is None:
             ret = radial_return(trial, p, law, mu)
+            assert ret.stress is not None  # asked for (the default)
             return ret.stress, ret.plastic_strain_increment, float(ret.eqps_increment), x
         kr = kinematic_return(trial, p, x, law, kin, mu)
         return kr.stress, kr.plastic_strain_increment, float(kr.eqps_increment), kr.backstress

@@ -311,8 +311,8 @@ class ReturnResult:
 
     Attributes
     ----------
-    stress : ndarray, shape (..., 6)
-        Returned stress σ = σ_tr − 2μ Δεp [Pa].
+    stress : ndarray, shape (..., 6), or None
+        Returned stress σ = σ_tr − 2μ Δεp [Pa]; None when not asked for (``with_stress``).
     plastic_strain_increment : ndarray, shape (..., 6)
         Deviatoric Δεp, tensor components.
     eqps_increment : ndarray, shape (...)
@@ -323,7 +323,7 @@ class ReturnResult:
         Maximum number of Newton/bisection updates over all points.
     """
 
-    stress: np.ndarray
+    stress: np.ndarray | None
     plastic_strain_increment: np.ndarray
     eqps_increment: np.ndarray
     plastic: np.ndarray
@@ -331,7 +331,8 @@ class ReturnResult:
 
 
 def radial_return(trial_stress, eqps, law: HardeningLaw, mu: float, depth=None,
-                  tol: float = 1e-12, max_iter: int = 50) -> ReturnResult:
+                  tol: float = 1e-12, max_iter: int = 50, with_stress: bool = True
+                  ) -> ReturnResult:
     """Fully implicit radial return for von Mises plasticity with isotropic hardening.
 
     Backward-Euler integration of the Prandtl–Reuss flow of seed eq. (3.2) (Simo & Hughes 1998,
@@ -359,6 +360,10 @@ def radial_return(trial_stress, eqps, law: HardeningLaw, mu: float, depth=None,
         Relative tolerance on the consistency residual.
     max_iter : int
         Maximum Newton/bisection updates; :class:`ReturnMappingError` beyond.
+    with_stress : bool
+        Assemble the returned stress (a copy of the trial stress, the plastic points replaced).
+        The plastic fixed point needs only the increments: without it, a box-size array less
+        per sweep.
 
     Returns
     -------
@@ -374,13 +379,15 @@ def radial_return(trial_stress, eqps, law: HardeningLaw, mu: float, depth=None,
     if np.any(p_old < 0.0):
         raise ValueError("eqps (accumulated equivalent plastic strain) must be >= 0")
     d_all = None if depth is None else np.broadcast_to(np.asarray(depth, float), lead).reshape(-1)
-    sig2 = sig.reshape(-1, 6)
-    s = deviator(sig2)
-    q_tr = np.sqrt(1.5 * double_contraction(s, s))
+    sig2 = np.ascontiguousarray(sig.reshape(-1, 6))
+    from sacflow.equivalent_stress import equivalent_stress  # numba: plastic runs only
+
+    q_tr = equivalent_stress(sig2)  # one pass over the box, no full-size deviator
     plastic = (q_tr > law.yield_stress(p_old, d_all)).reshape(lead)
     idx = np.flatnonzero(plastic)
     if idx.size == 0:
-        return ReturnResult(sig.copy(), np.zeros(sig.shape), np.zeros(lead), plastic, 0)
+        return ReturnResult(sig.copy() if with_stress else None, np.zeros(sig.shape),
+                            np.zeros(lead), plastic, 0)
     dp_all = np.zeros(q_tr.shape)
     act, q, p0 = idx, q_tr[idx], p_old[idx]  # act: global indices of the points iterating
     q_pl = q
@@ -414,16 +421,20 @@ def radial_return(trial_stress, eqps, law: HardeningLaw, mu: float, depth=None,
         iterations = it + 1
     dp = dp_all[idx]
     # Only the plastic points change (a small part of a large cuboid box): written in place.
-    ratio = law.yield_stress(p_old[idx] + dp, d_pl) / q_pl  # s_new = s σ_Y(p + Δp)/q_tr
-    s_pl, sig_pl = s[idx], sig2[idx]
+    sig_pl = sig2[idx]
+    s_pl = deviator(sig_pl)
     dep = np.zeros(sig2.shape)
     dep[idx] = s_pl * (1.5 * dp / q_pl)[:, None]
-    new = s_pl * ratio[:, None]
-    new[:, :3] += ((sig_pl[:, 0] + sig_pl[:, 1] + sig_pl[:, 2]) / 3.0)[:, None]
-    stress = sig2.copy()
-    stress[idx] = new
-    return ReturnResult(stress.reshape(sig.shape), dep.reshape(sig.shape), dp_all.reshape(lead),
-                        plastic, iterations)
+    stress = None
+    if with_stress:
+        ratio = law.yield_stress(p_old[idx] + dp, d_pl) / q_pl  # s_new = s σ_Y(p + Δp)/q_tr
+        new = s_pl * ratio[:, None]
+        new[:, :3] += ((sig_pl[:, 0] + sig_pl[:, 1] + sig_pl[:, 2]) / 3.0)[:, None]
+        stress = sig2.copy()
+        stress[idx] = new
+        stress = stress.reshape(sig.shape)
+    return ReturnResult(stress, dep.reshape(sig.shape), dp_all.reshape(lead), plastic,
+                        iterations)
 
 
 class ReturnTangent:

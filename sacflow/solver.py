@@ -113,6 +113,11 @@ class Increment:
     coupling_residual: float = 0.0
 
 
+def _largest_magnitude(a: np.ndarray) -> float:
+    """``max |a|`` without a box-size temporary (NaN if ``a`` holds one, as ``np.abs(a).max()``)."""
+    return float(np.maximum(a.max(), -a.min()))
+
+
 class Simulation:
     """A case turned into grids and operators, run increment by increment.
 
@@ -534,11 +539,12 @@ class Simulation:
             nonlocal applications
             stress, apps = sigma(x)
             applications += apps
-            trial = stress + 2.0 * mu * x
+            trial = np.multiply(x, 2.0 * mu)  # σ + 2μx: box-size arrays, one temporary
+            trial += stress
             ret = self._return(trial, eqps, depth)
             gx = ret.plastic_strain_increment
-            scale = max(float(np.abs(gx).max()), float(np.abs(x).max()), strain_scale)
-            return Evaluation(gx, float(np.abs(gx - x).max()) / scale, (trial, ret))
+            scale = max(_largest_magnitude(gx), _largest_magnitude(x), strain_scale)
+            return Evaluation(gx, _largest_magnitude(gx - x) / scale, (trial, ret))
 
         def jacobian(x: np.ndarray, ev: Evaluation) -> LinearOperator:
             """``I − T (A + 2μ)``: ``T`` the return's algorithmic tangent, ``A`` residual stress."""
@@ -577,7 +583,8 @@ class Simulation:
     def _return(self, trial: np.ndarray, eqps: np.ndarray, depth: np.ndarray):
         """Return-map the trial stress with the body's law: isotropic, or with the backstress."""
         if self.kinematic is None:
-            return radial_return(trial, eqps, self.law, self.mu, depth=depth)
+            return radial_return(trial, eqps, self.law, self.mu, depth=depth,
+                                 with_stress=False)  # the increments are what it needs
         return kinematic_return(trial, eqps, self.backstress, self.law, self.kinematic,
                                 self.mu, depth=depth)
 

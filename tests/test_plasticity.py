@@ -369,3 +369,36 @@ def test_hardening_from_schema():
         hardening_from_schema(ns(law="voce"))
     with pytest.raises(ValueError, match="'C'"):
         hardening_from_schema(ns(law="swift", B=1240e6, C=None, n=0.085))
+
+
+def test_compiled_equivalent_stress_equals_the_deviator_form():
+    """The radial return's one-pass yield check computes sqrt(3/2 s:s) as the numpy form does
+    (to rounding), for tensors of every scale and pure pressures (q = 0)."""
+    from sacflow.equivalent_stress import equivalent_stress
+
+    rng = np.random.default_rng(11)
+    stress = rng.standard_normal((5000, 6)) * 10.0 ** rng.uniform(-3, 10, (5000, 1))
+    stress[:10, :3] = stress[:10, :1]  # hydrostatic
+    stress[:10, 3:] = 0.0
+    s = deviator(stress)
+    expected = np.sqrt(1.5 * double_contraction(s, s))
+    got = equivalent_stress(np.ascontiguousarray(stress))
+    scale = np.abs(stress).max(axis=1)
+    assert np.all(np.abs(got - expected) <= 1e-14 * scale)
+    assert np.all(got[:10] <= 1e-15 * scale[:10])
+
+
+def test_return_without_stress_gives_the_same_increments():
+    law = Linear(yield_stress=1e9, modulus=20e9)
+    rng = np.random.default_rng(12)
+    trial = rng.standard_normal((40, 30, 6)) * 1.2e9
+    eqps = rng.uniform(0, 1e-3, (40, 30))
+    full = radial_return(trial, eqps, law, 80e9)
+    lean = radial_return(trial, eqps, law, 80e9, with_stress=False)
+    assert full.plastic.any() and not full.plastic.all()
+    assert lean.stress is None
+    assert_array_equal(lean.plastic_strain_increment, full.plastic_strain_increment)
+    assert_array_equal(lean.eqps_increment, full.eqps_increment)
+    assert_array_equal(lean.plastic, full.plastic)
+    elastic = radial_return(trial * 1e-3, eqps, law, 80e9, with_stress=False)
+    assert elastic.stress is None and not elastic.plastic.any()

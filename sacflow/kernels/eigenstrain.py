@@ -41,10 +41,16 @@ mirror kernel (a correlation in x3): one kernel set instead of two, all of them 
 Products. Reciprocity (Betti) makes the weighted kernels ``w_c A_cd`` (``w = 1`` for normal,
 2 for shear components) symmetric; with ``σ`` the even–odd block is antisymmetric. Their
 parities make every spectrum real (even pairs) or imaginary (even–odd pairs): 21 real arrays
-are stored, the signs and the realness checked at set-up, and one compiled pass
+are stored (reciprocity and the parity in x3 checked at set-up), and one compiled pass
 (:mod:`sacflow.kernels.pair_products`) forms the six products and adds the traction
 correction ``C_c p̂``, computed by 2-D FFTs (``C_c``: Love's stress of each layer, transformed
 along depth like the output).
+
+Lateral spectra of the kernels. Every kernel (pair, surface traction and displacement, the
+correction) is even or odd along x1 and along x2, so its lateral spectrum follows from its
+values at the offsets ``k1, k2 ≥ 0`` by cosine and sine transforms
+(:mod:`sacflow.kernels.folded_fft`): the closed forms are evaluated on a quarter of the
+wrap-around period, nothing is mirrored, and the spectra are real by construction.
 
 The traction ``p`` of step 3 is taken over the box footprint (``n1 × n2`` cells): the box must
 extend laterally beyond the plastic zone by a margin (the traction decays like ``r⁻³``); the
