@@ -70,6 +70,8 @@ _KIND = re.compile(r"^[a-z0-9_]+$")
 _DIRECT_ALIGN = 4096
 #: Bytes copied into the aligned bounce buffer and written per call.
 _DIRECT_CHUNK = 8 << 20
+#: FFTW's wisdom files (:mod:`sacflow.kernels.fftw_wisdom`) and their temporaries.
+_WISDOM = re.compile(r"^\.?fftw-wisdom-[0-9a-f]{16}\.json(?:\..+)?$")
 _LEFTOVER = re.compile(r"^\.(?:[a-z0-9_]+-[0-9a-f]{24}\..+|trash-[a-z0-9_]+-[0-9a-f]{24}-\d+)$")
 
 
@@ -278,6 +280,9 @@ def clear_cache(root: Path | None = None) -> tuple[int, int]:
     for leftover in root.iterdir():  # interrupted writes and removals (this cache's names only)
         if _LEFTOVER.match(leftover.name) and leftover.is_dir():
             shutil.rmtree(leftover, ignore_errors=True)
+        elif _WISDOM.match(leftover.name) and leftover.is_file():  # FFTW's (kernels.fftw_wisdom)
+            with contextlib.suppress(OSError):
+                leftover.unlink()
     return len(entries), sum(e.nbytes for e in entries)
 
 

@@ -275,3 +275,49 @@ def test_cache_command_lists_and_clears(cache, capsys):
     assert main(["cache", "clear"]) == 0
     assert "removed 1 entries" in capsys.readouterr().out
     assert kernel_cache.list_entries(cache) == []
+
+
+_PLAN_AND_EXIT = """
+import json, sys
+from sacflow.kernels import fftw_wisdom
+from sacflow.kernels.fft import RealFFT, pyfftw
+fftw_wisdom.load_wisdom()
+before = pyfftw.export_wisdom()
+RealFFT((512, 512), 2)  # 2^18 points: a measured plan
+print(json.dumps({"imported": any(len(w) > 200 for w in before)}))
+"""
+
+
+def _plan_in_a_process(cache_dir: str) -> dict:
+    import json
+    import subprocess
+    import sys
+
+    env = {**os.environ, "SACFLOW_CACHE_DIR": cache_dir}
+    out = subprocess.run([sys.executable, "-c", _PLAN_AND_EXIT], env=env, check=True,
+                         capture_output=True, text=True).stdout
+    return json.loads(out)
+
+
+def test_fftw_wisdom_is_kept_for_the_next_process(tmp_path):
+    from sacflow.kernels import fftw_wisdom
+
+    root = tmp_path / "kernels"
+    assert _plan_in_a_process(str(root)) == {"imported": False}  # nothing stored yet
+    (path,) = root.glob("fftw-wisdom-*.json")
+    assert path == fftw_wisdom.wisdom_path(root)
+    assert _plan_in_a_process(str(root)) == {"imported": True}
+    # a damaged file is ignored and replaced
+    path.write_text("not wisdom")
+    assert _plan_in_a_process(str(root)) == {"imported": False}
+    assert _plan_in_a_process(str(root)) == {"imported": True}
+    assert kernel_cache.clear_cache(root) == (0, 0)
+    assert list(root.iterdir()) == []
+
+
+def test_no_fftw_wisdom_with_the_cache_off(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("HOME", str(tmp_path))
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    assert _plan_in_a_process("off") == {"imported": False}
+    assert list(tmp_path.rglob("fftw-wisdom-*")) == []

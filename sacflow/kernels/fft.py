@@ -96,6 +96,17 @@ def default_threads() -> int:
         return max(1, os.cpu_count() or 1)
 
 
+def _new_plan(*args: Any, **kwargs: Any):
+    """``pyfftw.FFTW(...)``, with the wisdom stored beside the kernel cache imported first.
+
+    A measured plan of a known transform is then found at once (:mod:`sacflow.kernels.fftw_wisdom`).
+    """
+    from sacflow.kernels.fftw_wisdom import load_wisdom
+
+    load_wisdom()
+    return pyfftw.FFTW(*args, **kwargs)
+
+
 #: Transforms with at least this many points (per batch item) are planned with ``FFTW_MEASURE``.
 _MEASURED_POINTS = 1 << 18
 
@@ -282,8 +293,8 @@ class RealFFT:
 
     def _plan(self, a, b, axes, direction: str, destroy: bool = False):
         flags = (self._planner,) + (("FFTW_DESTROY_INPUT",) if destroy else ())
-        return pyfftw.FFTW(a, b, axes=axes, direction=direction, flags=flags,
-                           threads=self.threads, planning_timelimit=self._time_limit)
+        return _new_plan(a, b, axes=axes, direction=direction, flags=flags,
+                         threads=self.threads, planning_timelimit=self._time_limit)
 
     def _block(self, extent: Sequence[int | None]) -> tuple:
         """Index of ``[..., :e_1, …]`` over the transformed axes (``None``: whole axis)."""
@@ -406,8 +417,8 @@ class RealToReal:
             # is overwritten while planning).
             forced = fftw_planner_from_env() == "estimate"
             flag = "FFTW_ESTIMATE" if forced else "FFTW_MEASURE"
-            self._plan = pyfftw.FFTW(src, dst, axes=(axis,), direction=[kind], flags=(flag,),
-                                     threads=threads, planning_timelimit=_PLANNING_SECONDS)
+            self._plan = _new_plan(src, dst, axes=(axis,), direction=[kind], flags=(flag,),
+                                   threads=threads, planning_timelimit=_PLANNING_SECONDS)
 
     def __call__(self) -> np.ndarray:
         """Transform ``src`` into ``dst`` and return ``dst``."""
