@@ -13,7 +13,9 @@ arrays are small (:data:`MIN_CACHED_BYTES`) are not stored. Size limit:
 ``$SACFLOW_CACHE_MAX_BYTES`` (a number of bytes, or with a K, M, G or T suffix; default
 :data:`DEFAULT_MAX_BYTES`); the least recently used entries are removed beyond it, and an
 entry larger than the limit is not stored. ``sacflow cache info`` lists the entries,
-``sacflow cache clear`` removes them.
+``sacflow cache clear`` removes them (and FFTW's wisdom files, :mod:`sacflow.kernels.fftw_wisdom`).
+The arrays' files are written past the page cache where the system allows it
+(:func:`_write_npy`).
 
 Safe concurrent use (campaign workers share the cache): an entry is written into a private
 temporary directory, flushed, and renamed into place in one step; when two processes compute
