@@ -272,7 +272,8 @@ class RealFFT:
                 self._inv = self._plan(
                     self.spectrum, self.real, self.axes, "FFTW_BACKWARD", destroy=True
                 )
-            self.real[...] = 0.0
+            if not self._in_place:  # in place, the real array is a view of the spectrum's
+                self.real[...] = 0.0
             self.spectrum[...] = 0.0
         else:  # pragma: no cover - fallback
             self.real = np.zeros(self.shape)
