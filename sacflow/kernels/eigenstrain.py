@@ -148,6 +148,25 @@ def _check_depth_parity(below: np.ndarray, above: np.ndarray) -> None:
                      "their parity in x3")
 
 
+def _contiguous_ranges(count: int, parts: int) -> list[tuple[int, int]]:
+    """Split ``0 … count − 1`` into ``min(parts, count)`` contiguous ranges ``(first, last)``."""
+    parts = max(1, min(parts, count))
+    bounds = np.linspace(0, count, parts + 1).round().astype(int)
+    return [(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
+
+
+def _in_threads(function, threads: int, *arguments) -> None:
+    """Call ``function`` on each tuple of ``arguments`` in up to ``threads`` threads, and wait.
+
+    The set-up's loops over planes, layers, projections and blocks: numpy, scipy.fft and FFTW
+    release the GIL; each call writes its own part of the result, so the result does not depend
+    on the split.
+    """
+    count = len(arguments[0])
+    with ThreadPoolExecutor(max(1, min(threads, count)), "sacflow-kernels") as pool:
+        list(pool.map(function, *arguments))
+
+
 def _depth_spectra(kernels: np.ndarray, even: int, scale: np.ndarray,
                    threads: int = 1) -> None:
     """Depth transforms, in place, of kernels given for depth offsets 0 … N (axis 0).
@@ -169,9 +188,7 @@ def _depth_spectra(kernels: np.ndarray, even: int, scale: np.ndarray,
         block *= scale
         kernels[:, start:start + rows] = block
 
-    starts = range(0, kernels.shape[1], rows)
-    with ThreadPoolExecutor(max(1, min(threads, len(starts))), "sacflow-kernels") as pool:
-        list(pool.map(transform, starts))
+    _in_threads(transform, threads, range(0, kernels.shape[1], rows))
 
 
 def _depth_projection(layers: np.ndarray, N: int, odd: bool, factor: np.ndarray,
@@ -326,9 +343,8 @@ class HalfSpaceEigenstrain:
         # thread gains most on large grids, docs/performance.md).
         self.threads = int(threads or default_threads())
         self._executor: ThreadPoolExecutor | None = None
-        workers = min(self.threads, N + 1)  # contiguous ranges of depth frequencies, one each
-        bounds = np.linspace(0, N + 1, workers + 1).round().astype(int)
-        self._ranges = [(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
+        # contiguous ranges of depth frequencies, one per thread
+        self._ranges = _contiguous_ranges(N + 1, self.threads)
         self._inv_weight = 1.0 / WEIGHT
         self._spectra_of_eps = False  # the buffer holds the spectra surface_fields left
         # The 21 pair spectra; the surface kernels (traction, displacement) stacked for one
@@ -411,12 +427,10 @@ class HalfSpaceEigenstrain:
                 folded *= weights
                 kernels[m] = folded_spectra(folded, parities, (L1, L2))
 
-        # Depth offsets shared out between the threads (numpy and the transforms release the
-        # GIL); each plane is computed alone, so the result does not depend on the split.
-        workers = max(1, min(self.threads, N))
-        bounds = np.linspace(0, N, workers + 1).round().astype(int)
-        with ThreadPoolExecutor(workers, "sacflow-kernels") as pool:
-            list(pool.map(planes, bounds[:-1], bounds[1:]))
+        # Depth offsets shared out between the threads, a contiguous range each (one lattice
+        # per thread, whose planes of corner functions serve consecutive offsets).
+        _in_threads(planes, self.threads, *zip(*_contiguous_ranges(N, self.threads),
+                                               strict=True))
         sigma = np.array([-1.0 if MIRROR_SIGN[c] > 0 > MIRROR_SIGN[d] else 1.0
                           for c, d in PAIRS])
         _depth_spectra(kernels, EVEN_PAIRS, sigma / (2 * N * L1 * L2), self.threads)
@@ -468,10 +482,8 @@ class HalfSpaceEigenstrain:
                 layer[2, :, j] = spectra(rectangle_stress_grid(x1, x2, zj, h1, h2, self.nu))
 
         # Layers shared out between the threads, as the pair kernels' depth offsets.
-        workers = max(1, min(self.threads, n3))
-        bounds = np.linspace(0, n3, workers + 1).round().astype(int)
-        with ThreadPoolExecutor(workers, "sacflow-kernels") as pool:
-            list(pool.map(layers, bounds[:-1], bounds[1:]))
+        _in_threads(layers, self.threads, *zip(*_contiguous_ranges(n3, self.threads),
+                                               strict=True))
         out = np.empty((3, 6, N + 1, *half))
         weight = np.full(N + 1, 2.0)
         weight[[0, N]] = 1.0
@@ -486,8 +498,7 @@ class HalfSpaceEigenstrain:
         # one projection per task, shared out between the threads (each writes its own part of
         # the result, so its first touch of those pages is spread over the cores too)
         tasks = [(c, k) for c in range(6) for k in range(3)]
-        with ThreadPoolExecutor(workers, "sacflow-kernels") as pool:
-            list(pool.map(project, *zip(*tasks, strict=True)))
+        _in_threads(project, self.threads, *zip(*tasks, strict=True))
         return out[:2], out[2]
 
     # ------------------------------------------------------------------ application

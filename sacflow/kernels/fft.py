@@ -196,11 +196,6 @@ class RealFFT:
     in_place : bool, optional
         ``real`` is a view of ``spectrum``'s memory (FFTW's in-place layout, rows padded to
         ``2 (L // 2 + 1)`` values): half the memory; a forward transform destroys ``real``.
-        Only for the trailing axes.
-    axes : tuple of int, optional
-        Transform these ``ndim`` increasing axes instead of the trailing ones (the last of them
-        is halved in the spectrum), e.g. the leading two of a (x1, x2, batch) array whose
-        spectrum is wanted point-major; not with ``in_extent`` or ``out_extent``.
 
     Notes
     -----
@@ -225,24 +220,18 @@ class RealFFT:
         one_shot: bool = False,
         in_extent: Sequence[int] | None = None,
         out_extent: Sequence[int] | None = None,
-        axes: Sequence[int] | None = None,
         in_place: bool = False,
     ):
         self.shape = tuple(int(s) for s in shape)
         self.ndim = ndim
-        if axes is None:
-            axes = tuple(range(len(self.shape) - ndim, len(self.shape)))
-        elif in_extent is not None or out_extent is not None or len(axes) != ndim:
-            raise ValueError("axes: ndim increasing axes, and not with a pruned extent")
-        self.axes = tuple(int(a) for a in axes)
+        self.axes = tuple(range(len(self.shape) - ndim, len(self.shape)))
         self.size = int(np.prod([self.shape[a] for a in self.axes]))
         # Threads help only for large enough transforms; on small ones FFTW's synchronisation
         # costs more than it saves, by far when the other core is busy. Campaign workers run on
         # one thread each.
         total = int(np.prod(self.shape))
         self.threads = threads or (default_threads() if total >= _THREADED_POINTS else 1)
-        last = self.axes[-1]
-        spec_shape = self.shape[:last] + (self.shape[last] // 2 + 1,) + self.shape[last + 1:]
+        spec_shape = self.shape[:-1] + (self.shape[-1] // 2 + 1,)
         self.spectrum_shape = spec_shape
         self._fwd = self._inv = None
         self._fwd_stages: list | None = None
@@ -252,7 +241,7 @@ class RealFFT:
         self._real_tail: tuple | None = None
         if HAVE_PYFFTW:
             self.spectrum = pyfftw.empty_aligned(spec_shape, dtype="complex128")
-            self._in_place = in_place and self.axes[-1] == len(self.shape) - 1
+            self._in_place = in_place
             if self._in_place:
                 # the real array is a view of the spectrum's memory (rows padded to
                 # 2 (L // 2 + 1) values, FFTW's in-place layout): half the buffer memory
