@@ -49,8 +49,8 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def build_campaign(cases: int, nx: int, nz: int, increments: int):
     """The shipped Hertz case at nx x nx x nz cells, ``cases`` loads from 0.2 N to 0.65 N."""
-    from sacflow.config import apply_overrides, read_file
-    from sacflow.schema import Campaign
+    from sacflow.config.schema import Campaign
+    from sacflow.storage.case_file import apply_overrides, read_file
 
     base = apply_overrides(
         read_file(ROOT / "configs" / "hertz-elastic.toml"),
@@ -68,11 +68,11 @@ def serial(campaign, out: Path, fft_threads: str | None) -> tuple[float, list[fl
     """Run every case with ``run_case`` in this process: wall time, per-case wall and CPU.
 
     The process has the malloc settings of ``sacflow run`` and of the campaign workers
-    (:func:`sacflow.malloc.tune_malloc`), so that both sides allocate memory the same way.
+    (:func:`sacflow.machine.malloc.tune_malloc`), so that both sides allocate memory the same way.
     """
-    import sacflow.solver  # noqa: F401 - imported before the clock, like sacflow.runner
+    import sacflow.solver.simulation  # noqa: F401 - imported before the clock, like sacflow.runner
     from sacflow.campaign import expand_campaign
-    from sacflow.malloc import tune_malloc
+    from sacflow.machine.malloc import tune_malloc
     from sacflow.runner import run_case
 
     tune_malloc()

@@ -15,10 +15,10 @@ from _common import emit, isolated, timed
 def measure(n: int) -> dict:
     import numpy as np
 
-    from sacflow.contact import solve_contact
     from sacflow.kernels.fft import Convolution
     from sacflow.kernels.surface import rectangle_displacement
-    from sacflow.reference import composite_modulus, hertz_contact, hertz_pressure
+    from sacflow.mechanics.contact import solve_contact
+    from sacflow.mechanics.hertz import composite_modulus, hertz_contact, hertz_pressure
 
     e_star = composite_modulus(210e9, 0.3)
     radius, load = 105e-6, 0.65

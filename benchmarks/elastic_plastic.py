@@ -19,8 +19,8 @@ from _common import ROOT, emit, hertz_step_case, isolated
 def one_step(n: int, scheme: str = "coupled") -> dict:
     import numpy as np
 
-    from sacflow.config import case_from_dict
-    from sacflow.solver import Simulation
+    from sacflow.solver.simulation import Simulation
+    from sacflow.storage.case_file import case_from_dict
 
     case = case_from_dict(hertz_step_case(n, scheme))
     t0 = time.perf_counter()
@@ -46,8 +46,8 @@ def one_step(n: int, scheme: str = "coupled") -> dict:
 def full_case(path: str) -> dict:
     import numpy as np
 
-    from sacflow.config import load_case
-    from sacflow.solver import Simulation
+    from sacflow.solver.simulation import Simulation
+    from sacflow.storage.case_file import load_case
 
     case = load_case(path)
     t0 = time.perf_counter()

@@ -23,8 +23,8 @@ OVERRIDES = ["output.volume_every=1", "output.compression=1"]
 
 
 def run_case(out: str) -> dict:
-    from sacflow.config import load_case
     from sacflow.runner import run_case as run
+    from sacflow.storage.case_file import load_case
 
     case = load_case(ROOT / "configs/rolling-smooth.toml", OVERRIDES)
     t0 = time.perf_counter()

@@ -22,8 +22,8 @@ from _common import ROOT, emit, isolated
 
 
 def measure(passes: int, kinematic: tuple[float, float] | None) -> dict:
-    from sacflow.config import load_case
-    from sacflow.solver import Simulation
+    from sacflow.solver.simulation import Simulation
+    from sacflow.storage.case_file import load_case
 
     overrides = [f"load_path.1.passes={passes}", "output.volume_every=100000"]
     if kinematic is not None:

@@ -19,8 +19,8 @@ from _common import ROOT, emit, isolated
 def measure(factor: int) -> dict:
     import numpy as np
 
-    from sacflow.config import load_case
-    from sacflow.solver import Simulation
+    from sacflow.solver.simulation import Simulation
+    from sacflow.storage.case_file import load_case
 
     overrides = []
     if factor > 1:

@@ -9,7 +9,8 @@ For each n, in fresh processes sharing a new, empty kernel cache directory:
 * ``cold``: set-up with an empty cache (the kernels computed and stored), then the step;
 * ``warm``: set-up from the cache (memory-mapped), then the step.
 
-The processes have the malloc settings of ``sacflow run`` (:func:`sacflow.malloc.tune_malloc`).
+The processes have the malloc settings of ``sacflow run``
+(:func:`sacflow.machine.malloc.tune_malloc`).
 Prints JSON: set-up and step wall times, the step's operator applications and contact
 iterations, the peak resident memory of each process, and where the set-up's time went (the
 eigenstrain operator alone). ``--profile`` adds the ten functions of the step with the most
@@ -30,13 +31,13 @@ def one_step(n: int, cache: str, label: str, profile: bool) -> dict:
     os.environ["SACFLOW_CACHE_DIR"] = cache
     import numpy as np
 
-    from sacflow.malloc import tune_malloc
+    from sacflow.machine.malloc import tune_malloc
 
     tune_malloc()  # the process allocates as `sacflow run` and the campaign workers do
 
-    from sacflow.config import case_from_dict
     from sacflow.kernels import eigenstrain
-    from sacflow.solver import Simulation
+    from sacflow.solver.simulation import Simulation
+    from sacflow.storage.case_file import case_from_dict
 
     spent = {"eigenstrain_s": 0.0}
     build = eigenstrain.HalfSpaceEigenstrain.__init__

@@ -23,8 +23,8 @@ CASES = ("rolling-smooth", "rolling-smooth-traction")
 
 
 def run(name: str) -> dict:
-    from sacflow.config import load_case
-    from sacflow.solver import Simulation
+    from sacflow.solver.simulation import Simulation
+    from sacflow.storage.case_file import load_case
 
     case = load_case(ROOT / "configs" / f"{name}.toml")
     t0 = time.perf_counter()

@@ -30,12 +30,12 @@ from matplotlib.figure import Figure
 
 from sacflow.compare.fatigue import fatigue_stage
 from sacflow.compare.output import write
-from sacflow.config import load_case
+from sacflow.config.schema import Case
 from sacflow.errors import SacflowError
-from sacflow.initial_state_file import read_initial_state
 from sacflow.runner import run_case
-from sacflow.schema import Case
-from sacflow.solver import Simulation
+from sacflow.solver.simulation import Simulation
+from sacflow.storage.case_file import load_case
+from sacflow.storage.initial_state_file import read_initial_state
 
 HERE = Path(__file__).resolve().parent
 PRESS, CHAINED, GEOMETRIC = (HERE / f"dent-from-indentation-{k}.toml"

@@ -24,14 +24,14 @@ from pathlib import Path
 
 from sacflow.campaign import load_campaign, run_campaign
 from sacflow.compare.plots import _scale
-from sacflow.dent_study import (
+from sacflow.errors import SacflowError
+from sacflow.studies.dent_study import (
     dent_summary,
     fatigue_results,
     plot_index_vs_slope,
     plot_worst_case,
     write_summary,
 )
-from sacflow.errors import SacflowError
 
 HERE = Path(__file__).resolve().parent
 DENTED, SMOOTH = HERE / "dent-study.toml", HERE / "dent-study-smooth.toml"

@@ -23,8 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
-from sacflow.config import load_case
-from sacflow.solver import Simulation
+from sacflow.solver.simulation import Simulation
+from sacflow.storage.case_file import load_case
 
 CASE = Path(__file__).resolve().parents[1] / "configs" / "sliding-hertz.toml"
 #: Half-width of the window and depth of the box, in contact radii.

@@ -18,9 +18,9 @@ from pathlib import Path
 
 import numpy as np
 
-from sacflow.config import case_from_dict
 from sacflow.kernels.eigenstrain import HalfSpaceEigenstrain
-from sacflow.solver import Simulation
+from sacflow.solver.simulation import Simulation
+from sacflow.storage.case_file import case_from_dict
 
 OUT = Path(__file__).resolve().parents[1] / "data" / "operator_outputs.npz"
 E, NU = 210e9, 0.3

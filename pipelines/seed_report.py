@@ -42,8 +42,8 @@ PAIRS = [
 def build(name: str, overrides: list[str]):
     """The shipped case ``name``; ``-elastic``: with an elastic body; ``-rolling-grid``: on the
     grid of ``dent-rolling``."""
-    from sacflow.config import load_case
-    from sacflow.schema import Case
+    from sacflow.config.schema import Case
+    from sacflow.storage.case_file import load_case
 
     base = name.removesuffix("-elastic").removesuffix("-rolling-grid")
     case = load_case(ROOT / "configs" / f"{base}.toml", overrides)
@@ -61,7 +61,7 @@ def build(name: str, overrides: list[str]):
 
 def run(name: str, out: Path, overrides: list[str]) -> dict:
     from sacflow.runner import run_case
-    from sacflow.store import open_run
+    from sacflow.storage.run_file import open_run
 
     case = build(name, overrides)
     t0 = time.perf_counter()

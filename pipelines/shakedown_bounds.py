@@ -2,7 +2,8 @@
 
     python pipelines/shakedown_bounds.py [--out DIR] [--quick]
 
-Prints one JSON line per contact and residual field class (``sacflow.melan``): the first-yield
+Prints one JSON line per contact and residual field class (``sacflow.mechanics.shakedown``): the
+first-yield
 peak pressure and the largest peak pressure that a steady self-equilibrated residual stress
 proves safe, both in units of k = σ_Y/√3 (von Mises), ν = 0.3, with the settings used:
 
@@ -29,8 +30,8 @@ from typing import Any
 import numpy as np
 
 from sacflow.errors import SacflowError
-from sacflow.melan import MelanBound, rolling_shakedown_bound
-from sacflow.outdir import check_output_dir
+from sacflow.mechanics.shakedown import MelanBound, rolling_shakedown_bound
+from sacflow.storage.output_dir import check_output_dir
 
 SQRT3 = float(np.sqrt(3.0))
 #: (contact, class, settings) of the report; lengths in contact radii (half-widths).

@@ -27,8 +27,8 @@ __version__ = "0.1.0"
 # (and ``sacflow validate``) stays fast: xarray and netCDF load only for ``open_run``.
 _EXPORTS = {
     "ConfigError": "sacflow.errors",
-    "load_case": "sacflow.config",
-    "open_run": "sacflow.store",
+    "load_case": "sacflow.storage.case_file",
+    "open_run": "sacflow.storage.run_file",
     "open_campaign": "sacflow.campaign.opening",
     "residual_stress": "sacflow.kernels.eigenstrain",
     "residual_displacement": "sacflow.kernels.eigenstrain",

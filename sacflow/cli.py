@@ -1,9 +1,10 @@
 """Command line: ``sacflow run``, ``sacflow validate``, ``sacflow schema``.
 
-A thin layer over :mod:`sacflow.config` and :mod:`sacflow.runner`. Mistakes in a case are
+A thin layer over :mod:`sacflow.storage.case_file` and :mod:`sacflow.runner`. Mistakes in a case are
 printed as ``error: <message>`` with exit code 2, failed runs with exit code 1; never a traceback.
-Before any work, the ``SACFLOW_*`` environment variables are checked (:mod:`sacflow.environment`)
-and the ``--out`` folder is checked for writing (:mod:`sacflow.outdir`).
+Before any work, the ``SACFLOW_*`` environment variables are checked
+(:mod:`sacflow.machine.environment`)
+and the ``--out`` folder is checked for writing (:mod:`sacflow.storage.output_dir`).
 """
 
 from __future__ import annotations
@@ -16,9 +17,9 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from sacflow.compare.command import add_compare_command
-from sacflow.config import load_case
+from sacflow.config.schema import Case, case_json_schema
 from sacflow.errors import ConfigError, SacflowError
-from sacflow.schema import Case, case_json_schema
+from sacflow.storage.case_file import load_case
 
 __all__ = ["main"]
 
@@ -53,12 +54,13 @@ def _check_before_work(args: argparse.Namespace) -> None:
     """Check the environment variables and the ``--out`` folder before any work.
 
     A bad ``SACFLOW_*`` value or an ``--out`` that is a file, lies under a file or cannot be
-    created or written in is a :class:`ConfigError` naming it (:mod:`sacflow.environment`,
-    :mod:`sacflow.outdir`), not a failure after the first cases have run. Nothing is created
+    created or written in is a :class:`ConfigError` naming it (:mod:`sacflow.machine.environment`,
+    :mod:`sacflow.storage.output_dir`), not a failure after the first cases have run. Nothing is
+    created
     here: the folder is made when the first file is written.
     """
-    from sacflow.environment import check_environment
-    from sacflow.outdir import check_output_dir
+    from sacflow.machine.environment import check_environment
+    from sacflow.storage.output_dir import check_output_dir
 
     if args.command in _ENVIRONMENT_COMMANDS:
         check_environment()
@@ -115,7 +117,7 @@ def _parser() -> argparse.ArgumentParser:
     cache = commands.add_parser(
         "cache", help="the kernel cache: what it holds (info) or empty it (clear)",
         description="Kernel spectra of the grids already set up, kept on disk so that the "
-                    "next run on the same grid starts at once (sacflow.kernel_cache). "
+                    "next run on the same grid starts at once (sacflow.machine.kernel_cache). "
                     "SACFLOW_CACHE_DIR moves it (or 'off'), SACFLOW_CACHE_MAX_BYTES limits it.")
     cache.add_argument("action", choices=("info", "clear"), help="info (default) or clear",
                        nargs="?", default="info")
@@ -156,7 +158,7 @@ def _load_all(args: argparse.Namespace) -> list[Case]:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from sacflow.malloc import tune_malloc
+    from sacflow.machine.malloc import tune_malloc
     from sacflow.runner import run_case  # imports xarray and the solver only when running
 
     tune_malloc()  # this process is sacflow's own: reuse memory between steps and cases
@@ -190,7 +192,7 @@ def _campaign(args: argparse.Namespace) -> int:
 
 
 def _validate(args: argparse.Namespace) -> int:
-    from sacflow.memory import check_memory
+    from sacflow.solver.memory_estimate import check_memory
 
     status = 0
     for case in _load_all(args):
@@ -210,7 +212,7 @@ def _validate(args: argparse.Namespace) -> int:
 
 
 def _info(args: argparse.Namespace) -> int:
-    from sacflow.store import run_info
+    from sacflow.storage.run_file import run_info
 
     status = 0
     for path in args.runs:
@@ -222,8 +224,8 @@ def _info(args: argparse.Namespace) -> int:
 
 
 def _cache(args: argparse.Namespace) -> int:
-    from sacflow.kernel_cache import cache_directory, clear_cache, list_entries, max_bytes
-    from sacflow.memory import format_bytes
+    from sacflow.machine.kernel_cache import cache_directory, clear_cache, list_entries, max_bytes
+    from sacflow.solver.memory_estimate import format_bytes
 
     root = cache_directory()
     if root is None:
@@ -247,7 +249,7 @@ def _cache(args: argparse.Namespace) -> int:
 
 def _schema(args: argparse.Namespace) -> int:
     if args.markdown:
-        from sacflow.schema_doc import case_format_markdown
+        from sacflow.config.schema_doc import case_format_markdown
 
         print(case_format_markdown(), end="")
         return 0

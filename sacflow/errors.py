@@ -109,7 +109,7 @@ class EnvironmentVariableError(ConfigError):
     """A ``SACFLOW_*`` environment variable has a value sacflow cannot use.
 
     Its message names the variable, the value found and the accepted values (see
-    :mod:`sacflow.environment`).
+    :mod:`sacflow.machine.environment`).
     """
 
 

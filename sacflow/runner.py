@@ -1,8 +1,10 @@
 """Run one case: build the simulation, stream its states into the run file, report.
 
-The simulation contract (``sacflow.solver.Simulation``): ``sim = Simulation(case)``;
-``sim.coords`` is a :class:`~sacflow.state.GridCoords`; ``sim.total_steps`` an int; ``sim.run()``
-a generator of :class:`~sacflow.state.State`, raising a :class:`~sacflow.errors.SacflowError` on
+The simulation contract (``sacflow.solver.simulation.Simulation``): ``sim = Simulation(case)``;
+``sim.coords`` is a :class:`~sacflow.solver.state.GridCoords`; ``sim.total_steps`` an int;
+``sim.run()``
+a generator of :class:`~sacflow.solver.state.State`, raising a
+:class:`~sacflow.errors.SacflowError` on
 failure. A simulation that can go on from a stored state also has ``restore(step, arrays,
 first_contact_offset)`` and ``run(start=step + 1)``; its states carry that state
 (``State.restart``).
@@ -25,12 +27,12 @@ from typing import Protocol
 
 from tqdm.auto import tqdm
 
+from sacflow.config.schema import Case
 from sacflow.errors import BoxTooShallowError
-from sacflow.memory import check_memory
-from sacflow.outdir import prepare_output_dir
-from sacflow.schema import Case
-from sacflow.state import GridCoords, State
-from sacflow.store import (
+from sacflow.solver.memory_estimate import check_memory
+from sacflow.solver.state import GridCoords, State
+from sacflow.storage.output_dir import prepare_output_dir
+from sacflow.storage.run_file import (
     RunExistsError,
     RunInfo,
     RunWriter,
@@ -103,7 +105,7 @@ def run_case(
     progress : bool
         Show a progress bar (load, max pressure, contact/plasticity iterations).
     simulation_factory : callable, optional
-        ``factory(case) -> simulation``; default ``sacflow.solver.Simulation``.
+        ``factory(case) -> simulation``; default ``sacflow.solver.simulation.Simulation``.
     resume : bool
         Skip a finished run of the same case; go on after the stored steps of an interrupted
         one, from the solver state stored with the last sound step (a simulation without
@@ -111,7 +113,8 @@ def run_case(
         its first step, replacing its stored steps (asked for: ``sacflow run --restart``).
     overwrite : bool
         Replace a run of *another* case stored under the same name. Without it such a run,
-        finished or interrupted, is left as it is and :class:`~sacflow.store.RunExistsError`
+        finished or interrupted, is left as it is and
+        :class:`~sacflow.storage.run_file.RunExistsError`
         says how it differs.
 
     Raises
@@ -221,9 +224,9 @@ def _deeper(case: Case, exc: BoxTooShallowError) -> Case:
 
 def _default_factory() -> Callable[[Case], Simulation]:
     """Return the solver's simulation factory (it reads a measured surface, a stored state)."""
-    from sacflow.initial_state_file import read_initial_state
-    from sacflow.solver import Simulation as SolverSimulation  # the solver loads lazily
-    from sacflow.store import load_surface
+    from sacflow.solver.simulation import Simulation as SolverSimulation  # the solver loads lazily
+    from sacflow.storage.initial_state_file import read_initial_state
+    from sacflow.storage.run_file import load_surface
 
     def factory(case: Case) -> Simulation:
         return SolverSimulation(case, surface=load_surface(case),
@@ -266,10 +269,10 @@ def run(case: Case | str | Path, out_dir: str | Path = "runs", *, progress: bool
     """Notebook entry point: run ``case`` (a Case or a config path) and open the result.
 
     Writes ``out_dir/<case.name>.nc`` like ``sacflow run`` (resuming a partial run) and returns
-    the :class:`xarray.Dataset` from :func:`sacflow.store.open_run`.
+    the :class:`xarray.Dataset` from :func:`sacflow.storage.run_file.open_run`.
     """
-    from sacflow.config import load_case
-    from sacflow.store import open_run
+    from sacflow.storage.case_file import load_case
+    from sacflow.storage.run_file import open_run
 
     if not isinstance(case, Case):
         case = load_case(case)

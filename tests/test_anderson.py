@@ -3,7 +3,7 @@
 import numpy as np
 from numpy.testing import assert_allclose
 
-from sacflow.anderson import AndersonMixer
+from sacflow.solver.anderson import AndersonMixer
 
 
 def reference_step(xs, fs, mixing=1.0):

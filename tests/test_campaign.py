@@ -38,11 +38,11 @@ from sacflow.campaign import (
 )
 from sacflow.campaign import cluster as cluster_module
 from sacflow.cli import main
-from sacflow.config import load_case
+from sacflow.config.schema import NAME_PATTERN, Case
 from sacflow.errors import ConfigError, ConvergenceError
-from sacflow.malloc import MALLOC_ENV
-from sacflow.schema import NAME_PATTERN, Case
-from sacflow.store import completed_steps, is_complete, open_run
+from sacflow.machine.malloc import MALLOC_ENV
+from sacflow.storage.case_file import load_case
+from sacflow.storage.run_file import completed_steps, is_complete, open_run
 
 ROOT = Path(__file__).resolve().parents[1]
 SMOKE = ROOT / "configs" / "campaign-smoke.toml"
@@ -426,7 +426,7 @@ def worker_threads() -> dict:
     return {
         "env": {name: os.environ.get(name) for name in names},
         "pools": {(p["user_api"], p["num_threads"]) for p in threadpool_info()},
-        "solver": "sacflow.solver" in sys.modules,
+        "solver": "sacflow.solver.simulation" in sys.modules,
         "profiler": __import__("dask").config.get("distributed.worker.profile.enabled"),
         "frozen": __import__("gc").get_freeze_count(),
     }

@@ -6,12 +6,12 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from sacflow.config import case_from_dict
 from sacflow.errors import ConfigError
-from sacflow.initial import InitialStateError
-from sacflow.initial_state_file import read_initial_state
+from sacflow.mechanics.initial_state import InitialStateError
 from sacflow.runner import run_case
-from sacflow.solver import Simulation
+from sacflow.solver.simulation import Simulation
+from sacflow.storage.case_file import case_from_dict
+from sacflow.storage.initial_state_file import read_initial_state
 
 #: The seed's 650 mN indentation (rigid sphere R = 105 µm on Swift steel), coarse, on one fixed
 #: window so that every case below has the same body grid.

@@ -13,9 +13,9 @@ from test_store import make_coords, make_state
 import sacflow
 from sacflow import runner
 from sacflow.cli import main
+from sacflow.config.schema import Case
 from sacflow.errors import ConvergenceError, SacflowError
-from sacflow.schema import Case
-from sacflow.store import completed_steps
+from sacflow.storage.run_file import completed_steps
 
 HERTZ = Path(__file__).resolve().parents[1] / "configs" / "hertz-elastic.toml"
 SMALL = ["grid.nx=16", "grid.ny=16", "grid.nz=3", "load_path.0.increments=4"]

@@ -1,7 +1,7 @@
 """Comparison stages on synthetic runs with known answers, files, CLI, and one real Hertz run.
 
-Synthetic runs are written with the real store (:class:`sacflow.store.RunWriter` from
-:class:`sacflow.state.State` objects) so that the stages see the exact data model. Fields are
+Synthetic runs are written with the real store (:class:`sacflow.storage.run_file.RunWriter` from
+:class:`sacflow.solver.state.State` objects) so that the stages see the exact data model. Fields are
 chosen so that the answer is known in closed form: Hertz fields for the Hertz check, fields
 linear in x1 and x2 where a stage interpolates laterally (linear interpolation is then exact),
 even/odd profiles for the asymmetry, a ramp to a known plateau for the rolled track.
@@ -35,11 +35,11 @@ from sacflow.compare import (
 )
 from sacflow.compare.core import RESULTS
 from sacflow.compare.pairs import asymmetry
-from sacflow.config import load_case
-from sacflow.reference import hertz_contact, hertz_pressure
-from sacflow.schema import Case, Dent, Dented
-from sacflow.state import COMPONENTS, GridCoords, State
-from sacflow.store import RunWriter, open_run
+from sacflow.config.schema import Case, Dent, Dented
+from sacflow.mechanics.hertz import hertz_contact, hertz_pressure
+from sacflow.solver.state import COMPONENTS, GridCoords, State
+from sacflow.storage.case_file import load_case
+from sacflow.storage.run_file import RunWriter, open_run
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 HERTZ = CONFIGS / "hertz-elastic.toml"

@@ -24,9 +24,9 @@ from sacflow.compare import (
     vertical_vs_rolling,
 )
 from sacflow.compare.core import cell_bounds
-from sacflow.config import load_case
-from sacflow.state import COMPONENTS, GridCoords, State
-from sacflow.store import RunWriter, open_run
+from sacflow.solver.state import COMPONENTS, GridCoords, State
+from sacflow.storage.case_file import load_case
+from sacflow.storage.run_file import RunWriter, open_run
 
 HERTZ = Path(__file__).resolve().parents[1] / "configs" / "hertz-elastic.toml"
 #: The shallow box of the issue: 7 layers of 2 µm, 14 µm deep.

@@ -10,9 +10,9 @@ from pathlib import Path
 import pytest
 
 from sacflow.cli import main
-from sacflow.config import apply_overrides, load_case
+from sacflow.config.schema import Measured
 from sacflow.errors import ConfigError
-from sacflow.schema import Measured
+from sacflow.storage.case_file import apply_overrides, load_case
 
 HERTZ = Path(__file__).resolve().parents[1] / "configs" / "hertz-elastic.toml"
 TEXT = HERTZ.read_text()

@@ -17,9 +17,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sacflow.config import load_case
 from sacflow.runner import run_case
-from sacflow.store import open_run
+from sacflow.storage.case_file import load_case
+from sacflow.storage.run_file import open_run
 
 ROOT = Path(__file__).resolve().parent.parent
 CONFIGS = sorted(p for p in (ROOT / "configs").glob("*.toml") if "campaign" not in p.name)

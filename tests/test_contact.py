@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from sacflow.contact import solve_contact
 from sacflow.errors import ConvergenceError
 from sacflow.kernels.fft import Convolution
 from sacflow.kernels.surface import rectangle_displacement
-from sacflow.reference import composite_modulus, hertz_contact, hertz_pressure
+from sacflow.mechanics.contact import solve_contact
+from sacflow.mechanics.hertz import composite_modulus, hertz_contact, hertz_pressure
 
 E, NU, R, W = 210e9, 0.3, 105e-6, 0.65
 

@@ -12,10 +12,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sacflow.config import load_case
 from sacflow.errors import ConvergenceError
-from sacflow.layout import StepPlan
-from sacflow.solver import MAX_CUTBACKS, Simulation, _halfway
+from sacflow.solver.layout import StepPlan
+from sacflow.solver.simulation import MAX_CUTBACKS, Simulation, _halfway
+from sacflow.storage.case_file import load_case
 
 ROOT = Path(__file__).resolve().parents[1]
 INDENT = ROOT / "configs" / "nanoindentation-650mN.toml"

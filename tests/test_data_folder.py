@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 from reference_data import DATA, seed_rows, seed_value
 
-from sacflow.config import case_from_dict
-from sacflow.reference import hertz_contact
-from sacflow.solver import Simulation
-from sacflow.surface_file import load_surface, read_measured_surface
+from sacflow.mechanics.hertz import hertz_contact
+from sacflow.solver.simulation import Simulation
+from sacflow.storage.case_file import case_from_dict
+from sacflow.storage.surface_file import load_surface, read_measured_surface
 
 SURFACES = DATA / "surfaces"
 

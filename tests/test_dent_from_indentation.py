@@ -10,9 +10,9 @@ import pytest
 import xarray as xr
 from scipy.interpolate import RegularGridInterpolator
 
-from sacflow.config import load_case
-from sacflow.initial_state_file import read_initial_state
-from sacflow.solver import Simulation
+from sacflow.solver.simulation import Simulation
+from sacflow.storage.case_file import load_case
+from sacflow.storage.initial_state_file import read_initial_state
 
 PIPELINE = Path(__file__).resolve().parents[1] / "pipelines" / "dent_from_indentation.py"
 ROLLING = ["grid.nx=40", "grid.ny=40", "grid.nz=8", "load_path.1.steps=12"]

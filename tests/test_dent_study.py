@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from sacflow.dent_study import DentStudyError, case_metrics, dent_summary
+from sacflow.studies.dent_study import DentStudyError, case_metrics, dent_summary
 
 ROOT = Path(__file__).resolve().parents[1]
 PIPELINE = ROOT / "pipelines" / "dent_study.py"

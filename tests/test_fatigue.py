@@ -1,4 +1,4 @@
-"""Tests of the multiaxial fatigue core (sacflow.fatigue, issue #16).
+"""Tests of the multiaxial fatigue core (sacflow.mechanics.fatigue, issue #16).
 
 Independent checks: the 5-vector identity |S| = √J2 on random tensors; the minimum ball against
 the pure-Python Welzl implementation ``miniball`` (PyPI 1.2.0) and against its optimality
@@ -18,7 +18,7 @@ import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 from scipy.optimize import minimize, minimize_scalar, nnls
 
-from sacflow.fatigue import (
+from sacflow.mechanics.fatigue import (
     EnduranceLimits,
     crossland,
     dang_van,

@@ -19,10 +19,10 @@ import xarray as xr
 
 from sacflow.compare.core import CompareError
 from sacflow.compare.fatigue import DEFAULT_LIMITS, fatigue_stage, history_blocks
-from sacflow.config import case_from_dict
-from sacflow.fatigue import fatigue_indices
-from sacflow.reference import composite_modulus, hertz_contact, hertz_subsurface_stress
+from sacflow.mechanics.fatigue import fatigue_indices
+from sacflow.mechanics.hertz import composite_modulus, hertz_contact, hertz_subsurface_stress
 from sacflow.runner import run_case
+from sacflow.storage.case_file import case_from_dict
 
 SACFLOW = str(Path(sys.executable).with_name("sacflow"))
 E, NU, RADIUS, LOAD = 210e9, 0.3, 20e-3, 4200.0

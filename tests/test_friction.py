@@ -19,13 +19,13 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from sacflow.config import load_case
 from sacflow.errors import SacflowError
 from sacflow.kernels.shear import cerruti_stress, rectangle_shear_stress
 from sacflow.kernels.surface import boussinesq_stress, rectangle_stress
-from sacflow.reference import first_yield
+from sacflow.mechanics.hertz import first_yield
 from sacflow.runner import run_case
-from sacflow.solver import Simulation
+from sacflow.solver.simulation import Simulation
+from sacflow.storage.case_file import load_case
 
 ROOT = Path(__file__).resolve().parents[1]
 SLIDING = ROOT / "configs" / "sliding-hertz.toml"

@@ -17,8 +17,8 @@ import numpy as np
 import pytest
 
 from sacflow.compare.fields import refined_peak
-from sacflow.config import load_case
-from sacflow.solver import Simulation
+from sacflow.solver.simulation import Simulation
+from sacflow.storage.case_file import load_case
 
 CONFIG = Path(__file__).parent.parent / "configs" / "nanoindentation-190mN.toml"
 GRIDS = ((48, 18), (72, 27), (108, 40))

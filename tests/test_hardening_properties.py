@@ -2,8 +2,8 @@
 
 Valid laws of every kind are drawn from the schema's own domains -- Swift (both strain units),
 Linear, PerfectlyPlastic, Tabular (``beyond_last`` constant and extrapolate), each with and
-without a depth profile -- validated by :data:`sacflow.schema.HardeningLaw`, built with
-:func:`sacflow.plasticity.hardening_from_schema`, and checked: σ_Y finite, positive and
+without a depth profile -- validated by :data:`sacflow.config.schema.HardeningLaw`, built with
+:func:`sacflow.mechanics.plasticity.hardening_from_schema`, and checked: σ_Y finite, positive and
 non-decreasing in εp, and the radial return of a trial stress above yield lands on the yield
 surface with the consistency condition satisfied (Simo & Hughes 1998, Box 3.1).
 """
@@ -16,8 +16,8 @@ from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 from pydantic import TypeAdapter
 
-from sacflow import schema
-from sacflow.plasticity import hardening_from_schema, radial_return, von_mises
+from sacflow.config import schema
+from sacflow.mechanics.plasticity import hardening_from_schema, radial_return, von_mises
 
 #: Stresses drawn between these [Pa]: from soft metals' yield to well past hard steels'.
 STRESS_RANGE = (1e5, 1e11)

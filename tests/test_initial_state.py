@@ -12,11 +12,11 @@ import math
 import numpy as np
 import pytest
 
-from sacflow.config import case_from_dict
 from sacflow.errors import ConfigError
-from sacflow.initial import InitialYieldError
-from sacflow.reference import composite_modulus, hertz_subsurface_stress, von_mises
-from sacflow.solver import Simulation
+from sacflow.mechanics.hertz import composite_modulus, hertz_subsurface_stress, von_mises
+from sacflow.mechanics.initial_state import InitialYieldError
+from sacflow.solver.simulation import Simulation
+from sacflow.storage.case_file import case_from_dict
 
 E, NU, RADIUS, SIGMA_Y = 210e9, 0.3, 10e-3, 1.0e9
 E_STAR = composite_modulus(E, NU)

@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 
 import sacflow
-from sacflow.config import case_from_dict
 from sacflow.kernels.fft import Convolution
 from sacflow.kernels.surface import rectangle_stress
-from sacflow.solver import Simulation
+from sacflow.solver.simulation import Simulation
+from sacflow.storage.case_file import case_from_dict
 
 E, NU, R = 210e9, 0.3, 105e-6
 #: σ:ε with tensor shears stored once.

@@ -1,4 +1,4 @@
-"""The disk cache of kernel spectra (sacflow.kernel_cache): hits equal misses bit for bit,
+"""The disk cache of kernel spectra (sacflow.machine.kernel_cache): hits equal misses bit for bit,
 concurrent writers, damaged entries, the size limit, clearing, where it lives, the command."""
 
 from __future__ import annotations
@@ -12,10 +12,10 @@ import warnings
 import numpy as np
 import pytest
 
-from sacflow import kernel_cache
 from sacflow.cli import main
 from sacflow.errors import EnvironmentVariableError
 from sacflow.kernels.eigenstrain import HalfSpaceEigenstrain
+from sacflow.machine import kernel_cache
 
 E, NU = 210e9, 0.3
 
@@ -58,8 +58,8 @@ def test_contact_stress_operator_from_the_cache_equals_the_computed_one(cache):
     kernels (friction adds the traction's stress) are another entry."""
     from pathlib import Path
 
-    from sacflow.config import load_case
-    from sacflow.solver import Simulation
+    from sacflow.solver.simulation import Simulation
+    from sacflow.storage.case_file import load_case
 
     config = Path(__file__).resolve().parents[1] / "configs" / "rolling-cycles-shakedown.toml"
     small = ["grid.nx=12", "grid.ny=12", "grid.nz=4", "load_path.1.steps=2"]

@@ -1,4 +1,5 @@
-"""Kinematic hardening (sacflow.kinematic) and the material-point driver (issue #19, part).
+"""Kinematic hardening (sacflow.mechanics.kinematic) and the material-point driver (issue #19,
+part).
 
 * Armstrong–Frederick under uniaxial strain cycles against its closed form
   α = C/γ ± (α0 − C/γ) exp(∓γ Δεp) (α = 3/2 X11, the uniaxial backstress), any increment size;
@@ -18,10 +19,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sacflow.config import load_case
-from sacflow.kinematic import KinematicLaw, kinematic_return
-from sacflow.material_point import STRESS_TOL, cycle_path, material_cycles
-from sacflow.plasticity import PerfectlyPlastic, Swift, deviator, double_contraction, radial_return
+from sacflow.mechanics.kinematic import KinematicLaw, kinematic_return
+from sacflow.mechanics.material_point import STRESS_TOL, cycle_path, material_cycles
+from sacflow.mechanics.plasticity import (
+    PerfectlyPlastic,
+    Swift,
+    deviator,
+    double_contraction,
+    radial_return,
+)
+from sacflow.storage.case_file import load_case
 
 ROOT = Path(__file__).resolve().parents[1]
 E, NU, SY = 200e9, 0.3, 300e6

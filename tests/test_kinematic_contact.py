@@ -17,10 +17,10 @@ import pytest
 
 import sacflow
 from sacflow import runner
-from sacflow.config import load_case
 from sacflow.errors import SacflowError
-from sacflow.solver import Simulation
-from sacflow.store import run_info
+from sacflow.solver.simulation import Simulation
+from sacflow.storage.case_file import load_case
+from sacflow.storage.run_file import run_info
 
 ROOT = Path(__file__).resolve().parents[1]
 CASE = ROOT / "configs" / "rolling-cycles-shakedown.toml"

@@ -8,7 +8,7 @@ import sys
 
 import pytest
 
-from sacflow.malloc import MALLOC_ENV, tune_malloc
+from sacflow.machine.malloc import MALLOC_ENV, tune_malloc
 
 GLIBC = platform.system() == "Linux" and platform.libc_ver()[0] == "glibc"
 
@@ -20,7 +20,7 @@ FAULTS = """
 import resource, sys
 import numpy as np
 if sys.argv[1] == "tuned":
-    from sacflow.malloc import tune_malloc
+    from sacflow.machine.malloc import tune_malloc
     assert tune_malloc()
 a = np.ones(2 * 2**20 // 8); del a
 before = resource.getrusage(resource.RUSAGE_SELF).ru_minflt

@@ -1,4 +1,5 @@
-"""Melan's static theorem for steady rolling (sacflow.melan) and the line-contact field it uses.
+"""Melan's static theorem for steady rolling (sacflow.mechanics.shakedown) and the line-contact
+field it uses.
 
 The line contact is the check with a known answer: a steady residual field of a plane-strain
 body has no ρ13 (equilibrium with ∂/∂x1 = 0 and a free surface), so σ_vM ≥ √3 |σ13| and no
@@ -15,8 +16,8 @@ import pytest
 from numpy.testing import assert_allclose
 from scipy.integrate import quad
 
-from sacflow.melan import SteadyResidualField, melan_bound, rolling_shakedown_bound
-from sacflow.reference import line_contact_stress, von_mises
+from sacflow.mechanics.hertz import line_contact_stress, von_mises
+from sacflow.mechanics.shakedown import SteadyResidualField, melan_bound, rolling_shakedown_bound
 
 SQRT3 = np.sqrt(3.0)
 ROOT = Path(__file__).resolve().parents[1]
@@ -154,7 +155,7 @@ def test_bound_is_the_largest_von_mises_stress_of_its_own_field():
     x1 = np.linspace(-2.5, 2.5, 41)
     x2 = np.linspace(-1.5, 1.5, 25)
     x3 = np.linspace(0.05, 1.5, 24)
-    from sacflow.reference import hertz_subsurface_stress
+    from sacflow.mechanics.hertz import hertz_subsurface_stress
 
     elastic = hertz_subsurface_stress(*np.meshgrid(x1, x2, x3, indexing="ij"), 1.0, 1.0, 0.3)
     field = SteadyResidualField(x2, x3, 1.5, 1.5, (6, 4), "full")
@@ -177,8 +178,8 @@ def _hertz_cells(n: int) -> tuple[np.ndarray, float]:
 def test_pressure_stress_converges_to_hubers_field():
     """Love's rectangles summed over the cells of a Hertz pressure tend to the closed form
     (Huber) at second order in the cell size (the pressure sampled at cell centres)."""
-    from sacflow.melan import pressure_stress
-    from sacflow.reference import hertz_subsurface_stress
+    from sacflow.mechanics.hertz import hertz_subsurface_stress
+    from sacflow.mechanics.shakedown import pressure_stress
 
     z = np.array([0.25, 0.5, 1.0])
     errors = []
@@ -195,7 +196,7 @@ def test_pressure_stress_converges_to_hubers_field():
 
 def test_moving_pressure_bound_scales_with_the_pressure():
     """Twice the pressure, half the factor: the bound is homogeneous of degree −1."""
-    from sacflow.melan import moving_pressure_bound
+    from sacflow.mechanics.shakedown import moving_pressure_bound
 
     pressure, d = _hertz_cells(4)
     settings = {"a": 1.0, "track": 2.0, "half_width": 1.5, "depth": 1.5, "depth_step": 0.25,
@@ -214,9 +215,9 @@ def test_melan_stage_on_a_repeated_rolling_run(tmp_path, capsys):
 
     from sacflow.cli import main
     from sacflow.compare.melan import melan_check
-    from sacflow.config import load_case
-    from sacflow.layout import plan_steps
     from sacflow.runner import run_case
+    from sacflow.solver.layout import plan_steps
+    from sacflow.storage.case_file import load_case
 
     config = ROOT / "configs" / "rolling-cycles-shakedown.toml"
     case = load_case(config, ["grid.nx=12", "grid.ny=12", "grid.nz=6", "load_path.1.steps=4",
@@ -243,7 +244,7 @@ def test_melan_stage_on_a_repeated_rolling_run(tmp_path, capsys):
 def test_melan_stage_refuses_what_it_does_not_cover():
     from sacflow.compare.core import CompareError
     from sacflow.compare.melan import _check_case
-    from sacflow.config import load_case
+    from sacflow.storage.case_file import load_case
 
     with pytest.raises(CompareError, match="perfectly plastic"):
         _check_case(load_case(ROOT / "configs" / "rolling-smooth.toml"))

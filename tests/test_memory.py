@@ -1,4 +1,5 @@
-"""Memory estimate of a case (sacflow.memory): scaling with the grid, the check, the CLI line.
+"""Memory estimate of a case (sacflow.solver.memory_estimate): scaling with the grid, the check,
+the CLI line.
 
 A grid too large for the machine used to pass ``sacflow validate`` and end ``sacflow run`` in
 numpy's ``_ArrayMemoryError``; now ``validate`` prints the estimate and refuses such a grid
@@ -16,14 +17,14 @@ from pathlib import Path
 import pytest
 
 from sacflow.cli import main
-from sacflow.config import load_case
 from sacflow.errors import GridTooLargeError
-from sacflow.memory import (
-    available_memory,
+from sacflow.machine.resources import available_memory
+from sacflow.solver.memory_estimate import (
     body_grid,
     check_memory,
     estimate_memory,
 )
+from sacflow.storage.case_file import load_case
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 HERTZ = CONFIGS / "hertz-elastic.toml"
@@ -59,8 +60,8 @@ def test_estimate_grows_with_the_surface_grid():
 
 
 def test_rolling_body_grid_is_the_solver_s(tmp_path):
-    from sacflow.schema import Elastic
-    from sacflow.solver import Simulation
+    from sacflow.config.schema import Elastic
+    from sacflow.solver.simulation import Simulation
 
     case = load_case(ROLLING, ["grid.nx=16", "grid.ny=16", "grid.nz=2", "load_path.1.steps=5"])
     elastic = case.model_copy(update={"body": case.body.model_copy(
@@ -84,7 +85,7 @@ def test_check_memory_refuses_a_grid_larger_than_available():
 
 
 def test_available_memory_reads_meminfo_and_the_cgroup_limit(tmp_path, monkeypatch):
-    import sacflow.memory as memory
+    import sacflow.machine.resources as memory
 
     meminfo = tmp_path / "meminfo"
     meminfo.write_text("MemTotal:       8000000 kB\nMemAvailable:    4000000 kB\n")
@@ -102,7 +103,7 @@ def test_available_memory_reads_meminfo_and_the_cgroup_limit(tmp_path, monkeypat
 
 
 def test_available_memory_falls_back_on_sysconf(tmp_path, monkeypatch):
-    import sacflow.memory as memory
+    import sacflow.machine.resources as memory
 
     monkeypatch.setattr(memory, "MEMINFO", tmp_path / "no-meminfo")
     monkeypatch.setattr(memory, "CGROUP_LIMIT", tmp_path / "no-cgroup")
@@ -131,8 +132,8 @@ def test_validate_prints_the_estimate_of_a_small_case(capsys):
 _MEASURE = """
 import json, re, sys, tempfile
 from pathlib import Path
-from sacflow.config import load_case
-from sacflow.memory import estimate_memory
+from sacflow.storage.case_file import load_case
+from sacflow.solver.memory_estimate import estimate_memory
 from sacflow.runner import run_case
 case = load_case(sys.argv[1], sys.argv[2:])
 with tempfile.TemporaryDirectory() as out:

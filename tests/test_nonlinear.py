@@ -7,7 +7,7 @@ import pytest
 from numpy.testing import assert_allclose
 from scipy.sparse.linalg import LinearOperator
 
-from sacflow.nonlinear import (
+from sacflow.solver.nonlinear import (
     Evaluation,
     FixedPointError,
     NewtonSettings,

@@ -14,8 +14,8 @@ import sacflow
 from sacflow.campaign import run_campaign
 from sacflow.campaign.opening import CampaignOpenError
 from sacflow.compare.campaign import RESULT_NAMES, run_results
-from sacflow.dotted import CF_NAME, cf_names
-from sacflow.store import open_run
+from sacflow.config.dotted import CF_NAME, cf_names
+from sacflow.storage.run_file import open_run
 
 SMOKE = Path(__file__).resolve().parents[1] / "configs" / "campaign-smoke.toml"
 

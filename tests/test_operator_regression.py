@@ -14,9 +14,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sacflow.config import case_from_dict
 from sacflow.kernels.eigenstrain import HalfSpaceEigenstrain
-from sacflow.solver import Simulation
+from sacflow.solver.simulation import Simulation
+from sacflow.storage.case_file import case_from_dict
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "pipelines"))

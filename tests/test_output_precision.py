@@ -14,7 +14,7 @@ from test_resume import INDENT, TINY_INDENT, assert_same_run, interrupt
 import sacflow
 from sacflow import runner
 from sacflow.errors import ConfigError
-from sacflow.state import VOLUME_FIELDS
+from sacflow.solver.state import VOLUME_FIELDS
 
 FLOAT32 = [*TINY_INDENT, "output.volume_precision=float32"]
 

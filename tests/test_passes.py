@@ -18,9 +18,9 @@ import pytest
 import xarray as xr
 
 from sacflow.compare.passes import classify, pass_report
-from sacflow.config import load_case
-from sacflow.layout import plan_steps
 from sacflow.runner import run_case
+from sacflow.solver.layout import plan_steps
+from sacflow.storage.case_file import load_case
 
 ROOT = Path(__file__).resolve().parents[1]
 SMOOTH = ROOT / "configs" / "rolling-smooth.toml"
@@ -127,7 +127,7 @@ def test_the_shakedown_campaign_sweeps_p0_over_k_at_a_roll_distance_of_4a():
     """configs/campaign-rolling-cycles.toml: its loads give the p0/k it states (closed-form
     Hertz) and each roll distance is 4 a at its load, so only p0/k changes between cases."""
     from sacflow.campaign.expansion import expand_campaign, load_campaign
-    from sacflow.reference import composite_modulus, hertz_contact
+    from sacflow.mechanics.hertz import composite_modulus, hertz_contact
 
     cases = expand_campaign(load_campaign(ROOT / "configs" / "campaign-rolling-cycles.toml"))
     ratios = []

@@ -1,4 +1,5 @@
-"""Tests of sacflow.plasticity: hardening laws, von Mises helpers and the radial return."""
+"""Tests of sacflow.mechanics.plasticity: hardening laws, von Mises helpers and the radial
+return."""
 
 from __future__ import annotations
 
@@ -10,7 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose, assert_array_equal
 
-from sacflow.plasticity import (
+from sacflow.mechanics.plasticity import (
     DepthScaled,
     Elastic,
     Linear,
@@ -374,7 +375,7 @@ def test_hardening_from_schema():
 def test_compiled_equivalent_stress_equals_the_deviator_form():
     """The radial return's one-pass yield check computes sqrt(3/2 s:s) as the numpy form does
     (to rounding), for tensors of every scale and pure pressures (q = 0)."""
-    from sacflow.equivalent_stress import equivalent_stress
+    from sacflow.mechanics.equivalent_stress import equivalent_stress
 
     rng = np.random.default_rng(11)
     stress = rng.standard_normal((5000, 6)) * 10.0 ** rng.uniform(-3, 10, (5000, 1))

@@ -16,7 +16,7 @@ import pytest
 from test_configs import tiny_case
 
 import sacflow
-import sacflow.config
+import sacflow.storage.case_file
 from sacflow.runner import run_case
 
 matplotlib.use("Agg")  # the snippets plot; no display in the tests
@@ -48,14 +48,14 @@ def test_readme_python_snippet_runs(index, tmp_path, monkeypatch):
     import matplotlib.pyplot as plt
 
     code = python_blocks(README.read_text(encoding="utf-8"))[index]
-    load_case = sacflow.config.load_case
+    load_case = sacflow.storage.case_file.load_case
 
     def tiny_load_case(path, overrides=()):
         return tiny(load_case(path, overrides))
 
     run_case(tiny(load_case(ROOT / "configs" / "hertz-elastic.toml")), tmp_path / "runs",
              progress=False)
-    monkeypatch.setattr(sacflow.config, "load_case", tiny_load_case)
+    monkeypatch.setattr(sacflow.storage.case_file, "load_case", tiny_load_case)
     monkeypatch.chdir(ROOT)  # the snippets name configs/ relative to the repository
     code = code.replace('"runs/', f'"{tmp_path / "runs"}/')
     try:

@@ -1,4 +1,4 @@
-"""Tests of the Hertz reference solutions (sacflow.reference).
+"""Tests of the Hertz reference solutions (sacflow.mechanics.hertz).
 
 The subsurface field is checked against an independent superposition (quadrature) of Boussinesq
 point-load stresses over the Hertz pressure, and against the rectangle kernel; the surface
@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
 from sacflow.kernels.surface import boussinesq_stress, rectangle_stress
-from sacflow.reference import (
+from sacflow.mechanics.hertz import (
     composite_modulus,
     effective_radius,
     first_yield,

@@ -16,8 +16,8 @@ import sacflow
 from sacflow import runner
 from sacflow.cli import main
 from sacflow.errors import ConvergenceError
-from sacflow.solver import Simulation
-from sacflow.store import RunExistsError, parts_dir, run_info
+from sacflow.solver.simulation import Simulation
+from sacflow.storage.run_file import RunExistsError, parts_dir, run_info
 
 ROOT = Path(__file__).resolve().parents[1]
 INDENT = ROOT / "configs" / "nanoindentation-650mN.toml"
@@ -177,7 +177,7 @@ def test_elastic_unloading_returns_to_zero_approach(tmp_path):
     case = sacflow.load_case(HERTZ, [*TINY_HERTZ])
     data = case.model_dump()
     data["load_path"] = [*data["load_path"], {"kind": "unload", "increments": 1}]
-    case = sacflow.schema.Case.model_validate(data)
+    case = sacflow.config.schema.Case.model_validate(data)
     ds = sacflow.open_run(runner.run_case(case, tmp_path, progress=False).path)
     loaded, unloaded = (float(ds["approach"].isel(step=i)) for i in (0, -1))
     # No print: the sphere's lowest point returns to where it first touched the surface, the
@@ -210,7 +210,7 @@ def test_non_converged_step_raises_after_storing_the_completed_steps(tmp_path):
     data = case.model_dump()
     data["load_path"] = [data["load_path"][0], {"kind": "load", "to": 0.65, "increments": 1}]
     data["grid"]["half_width"] = 2.0
-    case = sacflow.schema.Case.model_validate(data)
+    case = sacflow.config.schema.Case.model_validate(data)
     with pytest.raises(ConvergenceError, match="step 2") as err:
         runner.run_case(case, tmp_path, progress=False)
     assert err.value.step == 2 and err.value.residual > err.value.tolerance
@@ -254,7 +254,7 @@ class InterruptedWhenGrown(Simulation):
 def test_interrupted_run_with_a_grown_box_resumes_as_grown(tmp_path, solved_steps):
     from test_solver import NU, E, R, load_for_ratio, sphere_case
 
-    from sacflow.reference import composite_modulus, hertz_contact
+    from sacflow.mechanics.hertz import composite_modulus, hertz_contact
 
     sigma_y = 4.0e9
     load = load_for_ratio(2.2, sigma_y)

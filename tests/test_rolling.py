@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from sacflow.config import case_from_dict, load_case
-from sacflow.solver import Simulation
+from sacflow.solver.simulation import Simulation
+from sacflow.storage.case_file import case_from_dict, load_case
 
 E, NU = 210e9, 0.3
 

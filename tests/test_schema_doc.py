@@ -5,8 +5,8 @@ from __future__ import annotations
 from pathlib import Path
 
 from sacflow.cli import main
-from sacflow.schema import Case
-from sacflow.schema_doc import COMMAND, case_format_markdown
+from sacflow.config.schema import Case
+from sacflow.config.schema_doc import COMMAND, case_format_markdown
 
 PAGE = Path(__file__).resolve().parents[1] / "docs" / "case-format.md"
 
@@ -14,7 +14,7 @@ PAGE = Path(__file__).resolve().parents[1] / "docs" / "case-format.md"
 def test_committed_page_matches_the_models():
     assert PAGE.is_file(), f"docs/case-format.md is missing; run: {COMMAND}"
     assert PAGE.read_text(encoding="utf-8") == case_format_markdown(), (
-        f"docs/case-format.md is out of date with sacflow/schema.py; run: {COMMAND}"
+        f"docs/case-format.md is out of date with sacflow/config/schema.py; run: {COMMAND}"
     )
 
 

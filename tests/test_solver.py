@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from sacflow.config import case_from_dict
 from sacflow.errors import ConvergenceError
-from sacflow.plasticity import von_mises
-from sacflow.reference import composite_modulus, hertz_contact
-from sacflow.solver import Simulation
+from sacflow.mechanics.hertz import composite_modulus, hertz_contact
+from sacflow.mechanics.plasticity import von_mises
+from sacflow.solver.simulation import Simulation
+from sacflow.storage.case_file import case_from_dict
 
 E, NU, R = 210e9, 0.3, 105e-6
 
@@ -170,7 +170,7 @@ def test_too_shallow_box_grows_and_says_so(tmp_path):
     """Plastic strain at the bottom layer: the run is repeated with a deeper box, with a note."""
     from sacflow.errors import BoxTooShallowError
     from sacflow.runner import run_case
-    from sacflow.store import is_complete, open_run
+    from sacflow.storage.run_file import is_complete, open_run
 
     sigma_y = 4.0e9
     load = load_for_ratio(2.2, sigma_y)
@@ -196,10 +196,10 @@ def test_measured_surface_comes_as_arrays(tmp_path):
 
     The simulation gets the heights as arrays; without them it says how to give them.
     """
-    from sacflow.config import load_case
     from sacflow.errors import SacflowError
-    from sacflow.state import MeasuredSurface
-    from sacflow.store import load_surface
+    from sacflow.solver.state import MeasuredSurface
+    from sacflow.storage.case_file import load_case
+    from sacflow.storage.run_file import load_surface
 
     hertz = Path(__file__).resolve().parents[1] / "configs" / "hertz-elastic.toml"
     sets = ["grid.nx=16", "grid.ny=16", "grid.nz=3"]

@@ -16,9 +16,8 @@ import pytest
 import xarray as xr
 from numpy.testing import assert_array_equal
 
-from sacflow.config import load_case
-from sacflow.schema import Case
-from sacflow.state import (
+from sacflow.config.schema import Case
+from sacflow.solver.state import (
     COMPONENTS,
     SCALAR_FIELDS,
     SURFACE_FIELDS,
@@ -26,7 +25,8 @@ from sacflow.state import (
     GridCoords,
     State,
 )
-from sacflow.store import (
+from sacflow.storage.case_file import load_case
+from sacflow.storage.run_file import (
     VARIABLES,
     RunExistsError,
     RunWriter,
@@ -331,7 +331,7 @@ WRITER_SCRIPT = """
 import sys, time
 sys.path.insert(0, {tests!r})
 from test_store import make_coords, make_state, small_case
-from sacflow.store import RunWriter
+from sacflow.storage.run_file import RunWriter
 
 case = small_case()
 coords = make_coords(case)

@@ -1,4 +1,4 @@
-"""BLAS thread limit of the numerical core (sacflow.threads)."""
+"""BLAS thread limit of the numerical core (sacflow.machine.threads)."""
 
 import subprocess
 import sys
@@ -7,7 +7,7 @@ CODE = """
 import sys
 import numpy  # its BLAS: loaded before the core runs, as by every module that calls it
 from threadpoolctl import threadpool_info, threadpool_limits
-from sacflow.threads import single_threaded_blas
+from sacflow.machine.threads import single_threaded_blas
 
 def blas_threads():
     return sorted(p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas")

@@ -17,10 +17,16 @@ from numpy.testing import assert_allclose
 
 from sacflow import runner
 from sacflow.cli import EXIT_CONFIG, main
-from sacflow.config import load_case
+from sacflow.config.schema import Case
 from sacflow.errors import ConfigError
-from sacflow.plasticity import Swift, Tabular, hardening_from_schema, radial_return, von_mises
-from sacflow.schema import Case
+from sacflow.mechanics.plasticity import (
+    Swift,
+    Tabular,
+    hardening_from_schema,
+    radial_return,
+    von_mises,
+)
+from sacflow.storage.case_file import load_case
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 HERTZ = CONFIGS / "hertz-elastic.toml"
@@ -243,7 +249,7 @@ def test_tabular_beyond_last_in_a_case():
 
 
 def test_no_leftover_output(tmp_path):  # the --out checks create the folder, nothing else
-    from sacflow.outdir import prepare_output_dir
+    from sacflow.storage.output_dir import prepare_output_dir
 
     out = prepare_output_dir(tmp_path / "a" / "b")
     assert out.is_dir() and not list(out.iterdir())

@@ -37,7 +37,7 @@ from sacflow.campaign.expansion import (
 )
 from sacflow.campaign.manifest import CampaignSummary, CaseRecord, Status
 from sacflow.campaign.running import WORKER_DIED, SimulationFactory, run_campaign, run_one
-from sacflow.problems import MAX_PROBLEMS
+from sacflow.config.problems import MAX_PROBLEMS
 
 __all__ = [
     "FFT_THREADS_ENV",

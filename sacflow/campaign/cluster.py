@@ -2,7 +2,8 @@
 
 The local cluster (:func:`connect` without a scheduler) has one single-threaded worker process
 per core, started with the thread and malloc settings of :data:`WORKER_ENV` and
-:data:`~sacflow.malloc.MALLOC_ENV`. Its workers are forked from multiprocessing's fork server
+:data:`~sacflow.machine.malloc.MALLOC_ENV`. Its workers are forked from multiprocessing's fork
+server
 (:func:`start_fork_server`), which has imported sacflow and the solver once, so that a worker
 starts with everything a case needs loaded. What this costs and saves is measured by
 ``benchmarks/campaign.py`` (figures in ``docs/campaigns.md``).
@@ -19,7 +20,7 @@ from contextlib import contextmanager, nullcontext
 from typing import Any
 
 from sacflow.errors import ConfigError, SacflowError
-from sacflow.malloc import MALLOC_ENV
+from sacflow.machine.malloc import MALLOC_ENV
 
 __all__ = [
     "FFT_THREADS_ENV",
@@ -50,12 +51,12 @@ WORKER_ENV = {
     "MKL_NUM_THREADS": "1",
 }
 #: Modules the fork server imports once, before forking the local cluster's workers.
-WORKER_PRELOAD = ("distributed", "sacflow.campaign", "sacflow.runner", "sacflow.solver")
+WORKER_PRELOAD = ("distributed", "sacflow.campaign", "sacflow.runner", "sacflow.solver.simulation")
 #: ... and, when a case has plasticity, what only elastic-plastic runs import (numba included).
 PLASTIC_PRELOAD = ("scipy.sparse.linalg", "sacflow.kernels.eigenstrain",
                    "sacflow.kernels.pair_products")
 #: ... and last, a module that freezes the garbage collector's view of all that (gc.freeze).
-FORK_SERVER_LAST = "sacflow._freeze"
+FORK_SERVER_LAST = "sacflow.campaign.gc_freeze"
 #: Transport schemes of a dask scheduler address (``--scheduler``); none means tcp.
 SCHEDULER_SCHEMES = ("tcp", "tls", "ws", "wss", "ucx")
 #: Largest TCP port number.
@@ -148,7 +149,8 @@ def _local_client(n: int) -> Iterator[Any]:
         # dask sets MALLOC_TRIM_THRESHOLD_=65536 in its workers (and in this process, for good),
         # which turns off glibc's adaptive mmap threshold: every large temporary array is then
         # mapped and zero-filled afresh, and the solver runs much slower (docs/campaigns.md,
-        # "Memory allocator"). Not set here: the workers get sacflow.malloc's settings from the
+        # "Memory allocator"). Not set here: the workers get sacflow.machine.malloc's settings from
+        # the
         # environment of worker_environ (the fork server's, or this one's for spawn).
         "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
         "distributed.worker.multiprocessing-method": method,

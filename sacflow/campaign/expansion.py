@@ -5,7 +5,7 @@ relative to the campaign file) and ``[[sweep]]`` blocks of dotted case paths (th
 syntax) with lists of values. A ``product`` block takes every combination of its lists, a
 ``zip`` block takes them side by side; several blocks combine as a product of blocks. Each case
 is named ``<campaign>-<tags>`` from its parameters (``smoke-to0.19-radius0.0001``) and
-identified by its :attr:`~sacflow.schema.Case.case_id`.
+identified by its :attr:`~sacflow.config.schema.Case.case_id`.
 """
 
 from __future__ import annotations
@@ -22,16 +22,8 @@ from typing import Any, get_origin
 
 from pydantic import ValidationError
 
-from sacflow.config import (
-    apply_overrides,
-    check_initial_state_file,
-    check_surface_file,
-    read_file,
-    resolve_surface_path,
-)
-from sacflow.dotted import list_index, set_dotted, valid_indices
-from sacflow.errors import ConfigError
-from sacflow.problems import (
+from sacflow.config.dotted import list_index, set_dotted, valid_indices
+from sacflow.config.problems import (
     drop_consequential,
     is_model,
     is_union,
@@ -42,7 +34,15 @@ from sacflow.problems import (
     suggest,
     union_members,
 )
-from sacflow.schema import FIELD_ERROR, Campaign, Case, Sweep
+from sacflow.config.schema import FIELD_ERROR, Campaign, Case, Sweep
+from sacflow.errors import ConfigError
+from sacflow.storage.case_file import (
+    apply_overrides,
+    check_initial_state_file,
+    check_surface_file,
+    read_file,
+    resolve_surface_path,
+)
 
 __all__ = [
     "MAX_NAME",
@@ -147,7 +147,7 @@ class CampaignCase:
 
     @property
     def case_id(self) -> str:
-        """Hash of the case (see :attr:`sacflow.schema.Case.case_id`)."""
+        """Hash of the case (see :attr:`sacflow.config.schema.Case.case_id`)."""
         return self.case.case_id
 
     def label(self) -> str:

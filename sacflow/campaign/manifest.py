@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 from sacflow.campaign.expansion import CampaignCase
-from sacflow.schema import Campaign
+from sacflow.config.schema import Campaign
 
 __all__ = ["CampaignSummary", "CaseRecord", "Manifest", "Status"]
 

@@ -23,9 +23,9 @@ from tqdm.auto import tqdm
 from sacflow.campaign import cluster
 from sacflow.campaign.expansion import CampaignCase, expand_campaign, load_campaign
 from sacflow.campaign.manifest import CampaignSummary, Manifest
+from sacflow.config.schema import Campaign, Case, Elastic
 from sacflow.errors import ConfigError, SacflowError
-from sacflow.outdir import prepare_output_dir
-from sacflow.schema import Campaign, Case, Elastic
+from sacflow.storage.output_dir import prepare_output_dir
 
 __all__ = ["WORKER_DIED", "SimulationFactory", "run_campaign", "run_one"]
 
@@ -119,9 +119,9 @@ def _skip_complete(
     """Mark the cases whose run file is complete as skipped; return the others to run.
 
     A case whose name holds a run of another case (finished or interrupted) is marked failed
-    with the message of :func:`sacflow.store.replace_message`, unless ``overwrite``.
+    with the message of :func:`sacflow.storage.run_file.replace_message`, unless ``overwrite``.
     """
-    from sacflow.store import replace_message, run_info
+    from sacflow.storage.run_file import replace_message, run_info
 
     pending = []
     for c in cases:

@@ -23,8 +23,8 @@ import numpy as np
 import xarray as xr
 
 from sacflow.compare.core import RESULTS, CompareError, RunLike, build, case_name, load_run
-from sacflow.dotted import cf_names, flatten
-from sacflow.store import open_run
+from sacflow.config.dotted import cf_names, flatten
+from sacflow.storage.run_file import open_run
 
 __all__ = [
     "RESULT_NAMES",
@@ -243,7 +243,7 @@ def summary_dataset(
         One mapping of result name -> value per case (the keys of :func:`run_results`).
     parameters : mapping
         Dotted parameter path -> its value in each case. Each becomes a coordinate named by
-        :func:`sacflow.dotted.cf_names` (``load_path.0.to`` -> ``load_path_0_to``) with the
+        :func:`sacflow.config.dotted.cf_names` (``load_path.0.to`` -> ``load_path_0_to``) with the
         dotted path in its ``parameter_path`` attribute.
     labels : mapping
         Further string coordinates along ``case`` (``case_id``, ``status``...).

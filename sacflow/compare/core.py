@@ -2,7 +2,8 @@
 
 Computation and metadata are separate layers (STYLE 8): the stages compute bare arrays and hand
 them to :func:`build`, which attaches ``units`` and ``long_name`` from the one table
-:data:`RESULTS` (falling back on the run-file table :data:`sacflow.store.VARIABLES` for the
+:data:`RESULTS` (falling back on the run-file table :data:`sacflow.storage.run_file.VARIABLES` for
+the
 quantities a result shares with a run, e.g. ``pressure``). Long names and units may hold
 ``{placeholders}`` filled from the ``context`` given to :func:`build` (a tensor component, the
 units of a compared variable).
@@ -29,9 +30,9 @@ import numpy as np
 import xarray as xr
 from pydantic import ValidationError
 
+from sacflow.config.schema import Case
 from sacflow.errors import SacflowError
-from sacflow.schema import Case
-from sacflow.store import COORDINATES, VARIABLES, open_run
+from sacflow.storage.run_file import COORDINATES, VARIABLES, open_run
 
 __all__ = [
     "RESULTS",
@@ -50,7 +51,8 @@ __all__ = [
     "step_index",
 ]
 
-#: A run: an opened Dataset (from :func:`sacflow.store.open_run`) or the path of a run file.
+#: A run: an opened Dataset (from :func:`sacflow.storage.run_file.open_run`) or the path of a run
+#: file.
 RunLike = xr.Dataset | str | Path
 
 #: Relative tolerance defining "at the maximum load".
@@ -264,7 +266,7 @@ def build(
 
 # --------------------------------------------------------------------------- runs
 def load_run(run: RunLike) -> xr.Dataset:
-    """Return the Dataset of a run (opened with :func:`sacflow.store.open_run` if a path)."""
+    """Return the Dataset of a run (opened by :func:`sacflow.storage.run_file.open_run`)."""
     if isinstance(run, xr.Dataset):
         ds = run
     else:
@@ -289,7 +291,7 @@ def _where(ds: xr.Dataset) -> str:
 
 
 def case_of(ds: xr.Dataset) -> Case:
-    """Return the :class:`~sacflow.schema.Case` stored in the run's attributes."""
+    """Return the :class:`~sacflow.config.schema.Case` stored in the run's attributes."""
     try:
         return Case.model_validate_json(ds.attrs["case"])
     except (KeyError, ValidationError, ValueError) as exc:

@@ -26,7 +26,7 @@ from sacflow.compare.core import (
     require,
     step_index,
 )
-from sacflow.state import COMPONENTS
+from sacflow.solver.state import COMPONENTS
 
 __all__ = ["indentation_profiles", "refined_peak", "residual_map"]
 

@@ -1,8 +1,9 @@
 """Stages against the elastic Hertz solution: :func:`hertz_check`, :func:`load_approach`.
 
-The Hertz quantities come from :mod:`sacflow.reference` (one closed form, used by the tests and
+The Hertz quantities come from :mod:`sacflow.mechanics.hertz` (one closed form, used by the tests
+and
 the stages alike, STYLE 2) with the effective radius R and the contact modulus E* of the case
-stored in the run (:meth:`sacflow.schema.Case.hertz`): δ = a²/R = (9 W² / 16 R E*²)^(1/3),
+stored in the run (:meth:`sacflow.config.schema.Case.hertz`): δ = a²/R = (9 W² / 16 R E*²)^(1/3),
 a = (3 W R / 4 E*)^(1/3), p0 = 3 W / (2 π a²).
 """
 
@@ -22,13 +23,13 @@ from sacflow.compare.core import (
     nearest,
     require,
 )
-from sacflow.reference import hertz_contact, hertz_pressure
+from sacflow.mechanics.hertz import hertz_contact, hertz_pressure
 
 __all__ = ["hertz_approach", "hertz_check", "load_approach"]
 
 
 def hertz_approach(load: np.ndarray, radius: float, e_star: float) -> np.ndarray:
-    """Hertz approach δ(W) [m] for each load [N] (:func:`sacflow.reference.hertz_contact`)."""
+    """Hertz approach δ(W) [m] for each load [N] (:func:`sacflow.mechanics.hertz.hertz_contact`)."""
     loads = np.asarray(load, dtype=float)
     out = [hertz_contact(max(w, 0.0), radius, e_star).approach for w in loads.ravel()]
     return np.reshape(np.array(out, dtype=float), loads.shape)

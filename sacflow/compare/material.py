@@ -3,7 +3,7 @@
 ``sacflow compare material-point CASE.toml --amplitude A [--cycles N --mode uniaxial|shear
 --control strain|stress --mean M --increments K]`` drives one material point of the case's body
 (E, ν, hardening law with its optional kinematic hardening) through cycles
-(:func:`sacflow.material_point.material_cycles`) and writes the history with a plot of the
+(:func:`sacflow.mechanics.material_point.material_cycles`) and writes the history with a plot of the
 loops, the plastic strain and the backstress against the increments.
 """
 
@@ -16,7 +16,7 @@ import xarray as xr
 from matplotlib.figure import Figure
 
 from sacflow.compare.core import CompareError
-from sacflow.material_point import MaterialPointError, material_cycles
+from sacflow.mechanics.material_point import MaterialPointError, material_cycles
 
 __all__ = ["material_point_stage", "plot_material_point"]
 
@@ -37,8 +37,8 @@ def material_point_stage(case_file: Path, amplitude: float | None = None,
     """
     from pydantic import ValidationError
 
-    from sacflow.config import format_validation_error, read_file
-    from sacflow.schema import Body
+    from sacflow.config.schema import Body
+    from sacflow.storage.case_file import format_validation_error, read_file
 
     if Path(case_file).suffix != ".toml":
         raise CompareError(f"material-point takes a case file (.toml), got {case_file}")

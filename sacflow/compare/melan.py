@@ -3,7 +3,8 @@
 ``sacflow compare melan RUN.nc [--step N]``: the contact pressure stored at one step (default:
 the middle rolling step of the last pass at full load, where a repeated-rolling run is closest
 to its steady cycle) is taken as a load that rolls along x1 over an unbounded track, on the
-surface as the run left it. :func:`sacflow.melan.moving_pressure_bound` then finds the largest
+surface as the run left it. :func:`sacflow.mechanics.shakedown.moving_pressure_bound` then finds
+the largest
 factor λ on that pressure for which a steady self-equilibrated residual stress keeps the
 elastic–perfectly plastic body below yield at every load position (Melan's theorem). λ ≥ 1
 proves that the body shakes down under that pressure; λ < 1 says that no steady residual field
@@ -46,7 +47,7 @@ VERDICT_RULE = (
 
 def _default_step(case: Any, steps: np.ndarray) -> int:
     """Return the middle rolling step of the last pass at full load."""
-    from sacflow.layout import plan_steps
+    from sacflow.solver.layout import plan_steps
 
     plan = plan_steps(case.load_path)
     rolling = [i for i, s in enumerate(plan) if case.load_path[s.segment].kind == "roll"]
@@ -122,7 +123,7 @@ def melan_check(run: str | Path | xr.Dataset, step: int | None = None) -> xr.Dat
     CompareError
         For cases the check does not cover (module docstring) or a step without pressure.
     """
-    from sacflow.melan import moving_pressure_bound
+    from sacflow.mechanics.shakedown import moving_pressure_bound
 
     ds = load_run(run)
     require(ds, "pressure", "load_x2", stage=STAGE)

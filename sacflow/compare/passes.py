@@ -71,7 +71,7 @@ def pass_report(run: str | Path | xr.Dataset) -> xr.Dataset:
     CompareError
         When the run has fewer than two passes, lacks the fields, or misses a pass's end.
     """
-    from sacflow.layout import plan_steps
+    from sacflow.solver.layout import plan_steps
 
     stage = "passes"
     ds = load_run(run)

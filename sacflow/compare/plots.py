@@ -18,7 +18,7 @@ from matplotlib.figure import Figure
 from sacflow.compare.material import plot_material_point
 from sacflow.compare.melan import plot_melan
 from sacflow.compare.passes import plot_passes
-from sacflow.reference import hertz_contact, hertz_pressure
+from sacflow.mechanics.hertz import hertz_contact, hertz_pressure
 
 __all__ = ["PLOTS", "plot"]
 

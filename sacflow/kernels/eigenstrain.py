@@ -74,7 +74,6 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 import scipy.fft
 
-from sacflow.kernel_cache import cached_arrays
 from sacflow.kernels.cuboid import PARITY
 from sacflow.kernels.cuboid_lattice import CuboidLattice
 from sacflow.kernels.fft import (
@@ -86,6 +85,8 @@ from sacflow.kernels.fft import (
 from sacflow.kernels.folded_fft import folded_spectra
 from sacflow.kernels.residual_displacement import cuboid_surface_displacement
 from sacflow.kernels.surface import rectangle_stress_grid
+from sacflow.machine.kernel_cache import cached_arrays
+from sacflow.machine.resources import available_memory
 
 __all__ = [
     "HalfSpaceEigenstrain",
@@ -104,7 +105,7 @@ EVEN, ODD = slice(0, 4), slice(4, 6)
 #: Reciprocity weights of the components (tensor shears count twice in σ : ε).
 WEIGHT = np.array([1.0, 1.0, 1.0, 2.0, 2.0, 2.0])
 #: Version of the kernel spectra's formulas and layout: part of their disk-cache key
-#: (:mod:`sacflow.kernel_cache`); increase it with any change of what the spectra hold.
+#: (:mod:`sacflow.machine.kernel_cache`); increase it with any change of what the spectra hold.
 KERNEL_VERSION = 3
 #: Bytes of the contiguous blocks in which the pair kernels are transformed along depth.
 _DEPTH_BLOCK_BYTES = 4 << 20
@@ -256,18 +257,6 @@ def kernel_bytes(shape: Sequence[int]) -> int:
     return operator_bytes(shape) + setup_bytes(shape)
 
 
-def _available_bytes() -> int:
-    """Physical memory available to this process (Linux ``MemAvailable``), or a large number."""
-    try:
-        with open("/proc/meminfo") as fh:
-            for line in fh:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except OSError:  # pragma: no cover
-        pass
-    return 1 << 62  # pragma: no cover
-
-
 class HalfSpaceEigenstrain:
     """Linear operators eigenstrain → residual stress and residual surface displacement.
 
@@ -308,7 +297,7 @@ class HalfSpaceEigenstrain:
         self.E, self.nu = float(E), float(nu)
         self.mu = self.E / (2.0 * (1.0 + self.nu))
         need = kernel_bytes(self.shape)
-        budget = _available_bytes() if max_bytes is None else int(max_bytes)
+        budget = available_memory() if max_bytes is None else int(max_bytes)
         if need > budget:
             raise GridTooLargeError(
                 f"a plastic-zone box of {self.shape[0]}×{self.shape[1]}×{self.shape[2]} cuboids "
@@ -367,7 +356,7 @@ class HalfSpaceEigenstrain:
         BLAS on one thread: its calls here (the corner sums' small matrix products) are short,
         and its spinning worker threads would take the cores from the plane loops' threads.
         """
-        from sacflow.threads import single_threaded_blas
+        from sacflow.machine.threads import single_threaded_blas
 
         with single_threaded_blas():
             surface, correction = self._layer_kernels(threads)

@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from sacflow.environment import fft_threads_from_env, fftw_planner_from_env
+from sacflow.machine.environment import fft_threads_from_env, fftw_planner_from_env
 
 #: Optional modules pyfftw's package imports for its interfaces, which sacflow does not use:
 #: ``dask.array`` (with xarray and pandas) and ``scipy.fftpack`` (with ``scipy.fft``).
@@ -85,7 +85,7 @@ def default_threads() -> int:
     """Return the number of FFT threads: ``SACFLOW_FFT_THREADS`` or the number of usable cores.
 
     A value that is not a whole number >= 1 raises
-    :class:`~sacflow.errors.EnvironmentVariableError` (see :mod:`sacflow.environment`).
+    :class:`~sacflow.errors.EnvironmentVariableError` (see :mod:`sacflow.machine.environment`).
     """
     from_env = fft_threads_from_env()
     if from_env is not None:
@@ -466,7 +466,8 @@ class Convolution:
         also stays in cache), for the same FFT work.
     cache : (str, mapping), optional
         Kind and parameters under which the kernel spectra are kept in the disk cache
-        (:func:`sacflow.kernel_cache.cached_arrays`); the parameters must hold everything the
+        (:func:`sacflow.machine.kernel_cache.cached_arrays`); the parameters must hold everything
+        the
         coefficients depend on (the grid shapes and offset are added here). Default: computed
         every time.
 
@@ -508,7 +509,7 @@ class Convolution:
         if cache is None:
             spectra = compute()["spectra"]
         else:
-            from sacflow.kernel_cache import cached_arrays
+            from sacflow.machine.kernel_cache import cached_arrays
 
             kind, parameters = cache
             key = {**parameters, "in_shape": list(self.in_shape),

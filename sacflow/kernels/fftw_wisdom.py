@@ -65,8 +65,8 @@ def load_wisdom() -> None:
     if _state["loaded"]:
         return
     _state["loaded"] = True
-    from sacflow.kernel_cache import cache_directory
     from sacflow.kernels.fft import pyfftw
+    from sacflow.machine.kernel_cache import cache_directory
 
     root = cache_directory()
     if pyfftw is None or root is None:

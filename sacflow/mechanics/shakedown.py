@@ -53,7 +53,7 @@ from scipy.optimize import minimize
 
 from sacflow.kernels.fft import Convolution
 from sacflow.kernels.shear import surface_load_stress_coefficients
-from sacflow.reference import hertz_subsurface_stress, line_contact_stress
+from sacflow.mechanics.hertz import hertz_subsurface_stress, line_contact_stress
 
 __all__ = [
     "MelanBound",
@@ -325,9 +325,9 @@ def rolling_shakedown_bound(
     Parameters
     ----------
     contact : {"point", "line"}
-        A circular Hertz contact (:func:`sacflow.reference.hertz_subsurface_stress`) or a
+        A circular Hertz contact (:func:`sacflow.mechanics.hertz.hertz_subsurface_stress`) or a
         plane-strain line contact rolling across its length
-        (:func:`sacflow.reference.line_contact_stress`; ``kind`` must be ``"depth"``, the
+        (:func:`sacflow.mechanics.hertz.line_contact_stress`; ``kind`` must be ``"depth"``, the
         samples lie on one x2).
     nu : float
         Poisson's ratio.

@@ -39,8 +39,8 @@ from sacflow.compare.core import case_of
 from sacflow.compare.fatigue import fatigue_stage, track_middle
 from sacflow.compare.output import write
 from sacflow.compare.plots import plot_fatigue
+from sacflow.config.schema import Case
 from sacflow.errors import SacflowError
-from sacflow.schema import Case
 
 __all__ = [
     "STUDY_RESULTS",

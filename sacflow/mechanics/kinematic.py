@@ -10,7 +10,7 @@ components),
     d\varepsilon^p = \tfrac32\, dp\, \frac{s - X}{\sigma_Y(p)}, \qquad
     dX = \tfrac23 C\, d\varepsilon^p - \gamma X\, dp,
 
-σ_Y(p) any isotropic law of :mod:`sacflow.plasticity`; γ = 0 is linear kinematic hardening
+σ_Y(p) any isotropic law of :mod:`sacflow.mechanics.plasticity`; γ = 0 is linear kinematic hardening
 (Prager–Ziegler). Over an increment from (σ_n, p_n, X_n) with the trial stress
 σ_tr = σ_n + 2μ Δε (deviatoric part s_tr), the isotropic part is integrated by backward Euler
 (σ_Y at p_n + Δp) and the backstress exactly for a flow direction n = Δεp/Δp that is constant
@@ -47,7 +47,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sacflow.plasticity import HardeningLaw, ReturnMappingError, deviator, double_contraction
+from sacflow.mechanics.plasticity import (
+    HardeningLaw,
+    ReturnMappingError,
+    deviator,
+    double_contraction,
+)
 
 __all__ = ["KinematicLaw", "KinematicReturn", "KinematicTangent", "kinematic_from_schema",
            "kinematic_return"]
@@ -131,7 +136,7 @@ def kinematic_return(trial_stress, eqps, backstress, law: HardeningLaw, kinemati
     tol : float
         Relative tolerance on the consistency residual (of σ_Y).
     max_iter : int
-        Newton/bisection updates before :class:`~sacflow.plasticity.ReturnMappingError`.
+        Newton/bisection updates before :class:`~sacflow.mechanics.plasticity.ReturnMappingError`.
 
     Returns
     -------
@@ -229,7 +234,7 @@ class KinematicTangent:
     At the plastic points of a return, ``apply(dσ)`` is the central difference
     [Δεp(σ_tr + h dσ) − Δεp(σ_tr − h dσ)] / 2h of :func:`kinematic_return` with the state
     (p_n, X_n) fixed, h = :data:`TANGENT_STEP` · max|σ_tr| / max|dσ|; zero at elastic points.
-    Used, like :class:`sacflow.plasticity.ReturnTangent` for isotropic hardening, by the
+    Used, like :class:`sacflow.mechanics.plasticity.ReturnTangent` for isotropic hardening, by the
     solver's Newton–Krylov iteration, where the directional derivative is all it needs.
     """
 

@@ -5,8 +5,8 @@ the normal load in equal steps, hold segments repeat it, roll segments move it o
 constant load. The body-fixed grid (:func:`body_grid`) is the contact window swept along every
 load position of the path, each placed on its nearest cell; its cuboid box is ``grid.depth``
 deep, or as deep as the elastic (Hertz) von Mises stress at the maximum load reaches yield plus
-a margin (:func:`auto_depth`). :class:`sacflow.solver.Simulation` and the memory estimate
-(:mod:`sacflow.memory`) both lay a case out through these functions.
+a margin (:func:`auto_depth`). :class:`sacflow.solver.simulation.Simulation` and the memory estimate
+(:mod:`sacflow.solver.memory_estimate`) both lay a case out through these functions.
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from sacflow.errors import SacflowError
-from sacflow.reference import hertz_axis_stress
+from sacflow.mechanics.hertz import hertz_axis_stress
 
 __all__ = ["BodyGrid", "StepPlan", "auto_depth", "body_grid", "plan_steps"]
 

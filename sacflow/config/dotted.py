@@ -1,8 +1,9 @@
 """Dotted paths into nested case data (``"load_path.0.to"``): parsing, setting, flattening.
 
 One rule for every dotted path sacflow reads or writes: ``--set`` overrides
-(:func:`sacflow.config.apply_overrides`), campaign sweep keys (:mod:`sacflow.campaign`), the run
-identity messages (:func:`sacflow.schema.identity_differences`) and the campaign summary
+(:func:`sacflow.storage.case_file.apply_overrides`), campaign sweep keys (:mod:`sacflow.campaign`),
+the run
+identity messages (:func:`sacflow.config.schema.identity_differences`) and the campaign summary
 (:mod:`sacflow.compare.campaign`). Parts are separated by dots; a part of ASCII digits only
 indexes a list from 0.
 """

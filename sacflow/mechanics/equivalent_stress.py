@@ -6,7 +6,8 @@ few per cent yield. Through numpy the check builds the deviator and its square a
 temporaries (three passes over 50 MB arrays); this loop reads each tensor once
 (``docs/performance.md``). The same arithmetic as
 ``sqrt(3/2 s:s)``, ``s = σ − tr(σ)/3 I``, shear components counted twice
-(:func:`sacflow.plasticity.deviator`, :func:`sacflow.plasticity.double_contraction`).
+(:func:`sacflow.mechanics.plasticity.deviator`,
+:func:`sacflow.mechanics.plasticity.double_contraction`).
 """
 
 from __future__ import annotations

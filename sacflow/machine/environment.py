@@ -10,7 +10,8 @@ sacflow reads four variables (all optional; unset or empty means the default):
     FFTW planner rigour: ``estimate`` or ``measure`` (case-insensitive; default: measured plans
     for large transforms, estimated ones for small transforms).
 ``SACFLOW_CACHE_DIR``
-    Directory of the kernel cache (:mod:`sacflow.kernel_cache`), or ``off`` to run without it
+    Directory of the kernel cache (:mod:`sacflow.machine.kernel_cache`), or ``off`` to run without
+    it
     (default: ``$XDG_CACHE_HOME/sacflow/kernels``, ``~/.cache/sacflow/kernels``).
 ``SACFLOW_CACHE_MAX_BYTES``
     Size limit of the kernel cache: bytes, or a number with a K, M, G or T suffix (``20G``);

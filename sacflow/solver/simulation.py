@@ -5,11 +5,13 @@ Per load increment the solver finds the plastic strain increment ``Δεp`` that 
     Δεp = R( σ^pr(p) + σ^r(εp_old + Δεp) + 2μ Δεp ),
     p   = elastic contact on the gap  h_geometry + u3^r(εp_old + Δεp),
 
-where ``R`` is the fully implicit J2 radial return (:func:`sacflow.plasticity.radial_return`),
+where ``R`` is the fully implicit J2 radial return
+(:func:`sacflow.mechanics.plasticity.radial_return`),
 ``σ^pr`` the stress of the contact pressure, ``σ^r`` the residual stress and ``u3^r`` the
 residual surface displacement of the plastic strain (:mod:`sacflow.kernels.eigenstrain`). The
 seed nests two loops (contact ↔ plastic strain); here both are one fixed point
-(:mod:`sacflow.nonlinear`: Anderson mixing, semismooth Newton when it stalls), the contact being
+(:mod:`sacflow.solver.nonlinear`: Anderson mixing, semismooth Newton when it stalls), the contact
+being
 re-solved (warm-started) at every evaluation (``solver.scheme = "nested"`` runs the seed's two
 loops instead; both converge to the same increment, the single loop with fewer residual-stress
 applications: ``benchmarks/elastic_plastic.py`` prints both counts). At convergence the seed's
@@ -35,38 +37,37 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from sacflow.anderson import AndersonMixer
-from sacflow.contact import ContactResult, solve_contact
 from sacflow.errors import BoxTooShallowError, ConvergenceError, SacflowError
-from sacflow.geometry import curvature_gap, features_gap
-from sacflow.initial import (
+from sacflow.kernels.fft import Convolution
+from sacflow.kernels.shear import surface_load_stress_coefficients
+from sacflow.kernels.surface import rectangle_displacement
+from sacflow.machine.threads import single_threaded_blas
+from sacflow.mechanics.contact import ContactResult, solve_contact
+from sacflow.mechanics.initial_state import (
     StoredState,
     check_initial_yield,
     initial_eqps,
     initial_stress,
     map_state,
 )
-from sacflow.kernels.fft import Convolution
-from sacflow.kernels.shear import surface_load_stress_coefficients
-from sacflow.kernels.surface import rectangle_displacement
-from sacflow.kinematic import KinematicTangent, kinematic_from_schema, kinematic_return
-from sacflow.layout import StepPlan, auto_depth, body_grid, plan_steps
-from sacflow.nonlinear import (
-    Evaluation,
-    FixedPointError,
-    difference_jacobian,
-    solve_fixed_point,
-)
-from sacflow.plasticity import (
+from sacflow.mechanics.kinematic import KinematicTangent, kinematic_from_schema, kinematic_return
+from sacflow.mechanics.plasticity import (
     Elastic,
     ReturnTangent,
     hardening_from_schema,
     radial_return,
     von_mises,
 )
-from sacflow.reference import composite_modulus
-from sacflow.state import VOLUME_FIELDS, GridCoords, MeasuredSurface, State
-from sacflow.threads import single_threaded_blas
+from sacflow.mechanics.surface_gap import curvature_gap, features_gap
+from sacflow.solver.anderson import AndersonMixer
+from sacflow.solver.layout import StepPlan, auto_depth, body_grid, plan_steps
+from sacflow.solver.nonlinear import (
+    Evaluation,
+    FixedPointError,
+    difference_jacobian,
+    solve_fixed_point,
+)
+from sacflow.solver.state import VOLUME_FIELDS, GridCoords, MeasuredSurface, State
 
 if TYPE_CHECKING:
     from sacflow.kernels.eigenstrain import HalfSpaceEigenstrain
@@ -127,7 +128,7 @@ class Simulation:
         The validated case.
     surface : MeasuredSurface, optional
         The heights of a measured surface (``surface.kind = "measured"``), as arrays: read them
-        with :func:`sacflow.store.load_surface`. Other surfaces need nothing.
+        with :func:`sacflow.storage.run_file.load_surface`. Other surfaces need nothing.
 
     Attributes
     ----------
@@ -140,21 +141,14 @@ class Simulation:
     def __init__(self, case, surface: MeasuredSurface | None = None,
                  initial: StoredState | None = None):
         self.case = case
-        body, cb = case.body, case.counterbody
+        body = case.body
         self.law = hardening_from_schema(body.hardening)
         self.plastic = not isinstance(self.law, Elastic)
         self.kinematic = kinematic_from_schema(body.hardening) if self.plastic else None
         self.E, self.nu = float(body.E), float(body.nu)
         self.mu = self.E / (2.0 * (1.0 + self.nu))
-        if cb.kind == "elastic":
-            self.e_star = composite_modulus(self.E, self.nu, cb.E, cb.nu)
-        else:
-            self.e_star = composite_modulus(self.E, self.nu)
-        rc = cb.principal_radii
-        self.radii = tuple(
-            1.0 / sum(1.0 / r for r in (rb, rk) if math.isfinite(r)) for rb, rk in zip(
-                body.radii, rc, strict=True)
-        )
+        self.e_star = case.contact_modulus()
+        self.radii = case.effective_radii()
         hertz = case.hertz()
         self.hertz = hertz
         # Shear traction q = μ p d (schema Friction): the traction per unit pressure, or None
@@ -184,7 +178,7 @@ class Simulation:
         self.coords = GridCoords(x1, x2, x3)
         self.threads = case.solver.fft_threads
         self._heights = _measured_heights(case, surface)
-        with single_threaded_blas():  # the kernels' set-up: see sacflow.threads
+        with single_threaded_blas():  # the kernels' set-up: see sacflow.machine.threads
             self._build_operators()
         shape = (*self.body_shape, self.nz)
         self.plastic_strain = np.zeros((*shape, 6))
@@ -219,7 +213,8 @@ class Simulation:
         if stored is None:
             raise SacflowError(
                 "initial_state: the stored state is needed: build the simulation with "
-                "Simulation(case, initial=sacflow.initial_state_file.read_initial_state(case)), "
+                "Simulation(case, initial=sacflow.storage.initial_state_file."
+                "read_initial_state(case)), "
                 "or use sacflow.run"
             )
         c = self.coords
@@ -503,7 +498,7 @@ class Simulation:
         the relative residual ``max|G(x) − x| / max(|G(x)|, |x|, |εp_old|)`` (relative to the
         increment, or to the plastic strain already there when that is larger: a hold step, or a
         rolling step far from the load, changes the plastic strain by round-off). Solved by
-        :func:`sacflow.nonlinear.solve_fixed_point`: sweeps accelerated by Anderson mixing
+        :func:`sacflow.solver.nonlinear.solve_fixed_point`: sweeps accelerated by Anderson mixing
         (plain sweeps without acceleration) and, when they stall, semismooth Newton–Krylov.
 
         At a fixed pressure (the nested scheme) the Jacobian is ``I − T (A + 2μ)``, ``T`` the
@@ -597,7 +592,7 @@ class Simulation:
 
     # ------------------------------------------------------------------ driver
     def run(self, start: int = 0) -> Iterator[State]:
-        """Yield one :class:`~sacflow.state.State` per increment of the load path.
+        """Yield one :class:`~sacflow.solver.state.State` per increment of the load path.
 
         Parameters
         ----------
@@ -622,9 +617,11 @@ class Simulation:
     ) -> None:
         """Take the state stored with step ``step`` to go on with ``run(start=step + 1)``.
 
-        ``restart`` holds the arrays of :data:`~sacflow.state.RESTART_FIELDS` on the body grid
+        ``restart`` holds the arrays of :data:`~sacflow.solver.state.RESTART_FIELDS` on the body
+        grid
         and ``first_contact_offset`` the origin of the approach, as :meth:`run` put them in that
-        step's :class:`~sacflow.state.State`. The residual stress is recomputed from the plastic
+        step's :class:`~sacflow.solver.state.State`. The residual stress is recomputed from the
+        plastic
         strain (one operator application); the contact pressure of the step becomes the warm
         start of the next contact solve, as in an uninterrupted run.
 
@@ -860,7 +857,7 @@ def _halfway(start: StepPlan, end: StepPlan) -> StepPlan:
 def _measured_heights(case, surface: MeasuredSurface | None):
     """Height function of a measured surface (linear interpolation), or None.
 
-    The heights come as arrays (:func:`sacflow.store.load_surface` reads the file): the
+    The heights come as arrays (:func:`sacflow.storage.run_file.load_surface` reads the file): the
     numerical core does no I/O. Points outside the measured grid raise
     :class:`~sacflow.errors.SacflowError` naming the uncovered extent.
     """
@@ -869,7 +866,8 @@ def _measured_heights(case, surface: MeasuredSurface | None):
     if surface is None:
         raise SacflowError(
             "surface: a measured surface needs its heights: build the simulation with "
-            "Simulation(case, surface=sacflow.store.load_surface(case)), or use sacflow.run"
+            "Simulation(case, surface=sacflow.storage.run_file.load_surface(case)), "
+            "or use sacflow.run"
         )
     from scipy.interpolate import RegularGridInterpolator
 

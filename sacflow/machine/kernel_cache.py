@@ -44,7 +44,7 @@ from typing import Any
 
 import numpy as np
 
-from sacflow.environment import CACHE_OFF, cache_dir_from_env, cache_max_bytes_from_env
+from sacflow.machine.environment import CACHE_OFF, cache_dir_from_env, cache_max_bytes_from_env
 
 __all__ = [
     "DEFAULT_MAX_BYTES",

@@ -1,4 +1,4 @@
-"""Run files: with :mod:`sacflow.surface_file`, the only modules that read or write netCDF.
+"""Run files: with :mod:`sacflow.storage.surface_file`, the only modules that read or write netCDF.
 
 Computation and metadata are separate layers: the numerical core hands bare arrays over, and
 this module attaches dims, units and long names.
@@ -6,7 +6,7 @@ this module attaches dims, units and long names.
 One netCDF4 file per case, ``<out>/<case name>.nc``, dimensions ``step`` (unlimited), ``x1``,
 ``x2``, ``x3`` and ``component`` (``11 22 33 12 13 23``). :data:`VARIABLES` is the one table
 of dims, units and long names; numerical code hands over bare arrays in a
-:class:`~sacflow.state.State`.
+:class:`~sacflow.solver.state.State`.
 
 Crash safety. :class:`RunWriter` writes each step as its own small file
 ``<path>.parts/step-000123-<sha256>.nc`` (temporary name, then ``os.replace``: a part is either
@@ -23,7 +23,7 @@ file, both case ids and the fields that differ. Damaged parts, and those after t
 always dropped.
 
 True resume: each part also holds, in its group ``restart``, what the solver needs to go on after
-that step (:data:`~sacflow.state.RESTART_FIELDS`: plastic strain, equivalent plastic strain,
+that step (:data:`~sacflow.solver.state.RESTART_FIELDS`: plastic strain, equivalent plastic strain,
 residual displacement, contact pressure; and the first-contact offset), except the arrays that
 the part already stores as output fields with the same values. The consolidated file does not
 keep them.
@@ -55,9 +55,9 @@ from typing import TYPE_CHECKING, Any, Literal, NamedTuple, cast
 import netCDF4
 import numpy as np
 
+from sacflow.config.schema import Case, identity_differences
 from sacflow.errors import SacflowError
-from sacflow.schema import Case, identity_differences
-from sacflow.state import (
+from sacflow.solver.state import (
     COMPONENTS,
     OPTIONAL_RESTART_FIELDS,
     RESTART_FIELDS,
@@ -67,7 +67,7 @@ from sacflow.state import (
     MeasuredSurface,
     State,
 )
-from sacflow.surface_file import load_surface, read_measured_surface
+from sacflow.storage.surface_file import load_surface, read_measured_surface
 
 if TYPE_CHECKING:  # xarray is imported where runs are read: writers (campaign workers) skip it
     import xarray as xr
@@ -423,7 +423,7 @@ def _source_attrs(case: Case) -> dict[str, Any]:
     spec = case.initial_state
     if spec is None:
         return {}
-    from sacflow.initial_state_file import stored_step_number
+    from sacflow.storage.initial_state_file import stored_step_number
 
     source = case.identity()["initial_state"]["run"]
     number = stored_step_number(Path(spec.run), spec.step)

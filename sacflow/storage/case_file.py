@@ -4,7 +4,8 @@ Bad input is rejected where it enters (STYLE 12): every failure here is a
 :class:`~sacflow.errors.ConfigError` whose text fits on one screen: the file name, then one line
 per problem with the dotted field path (as written in the file, list indices as numbers, e.g.
 ``load_path.0.to``), what is wrong, what the field means, and the value found. The lines are
-built by :mod:`sacflow.problems`; dotted ``--set`` paths are followed by :mod:`sacflow.dotted`.
+built by :mod:`sacflow.config.problems`; dotted ``--set`` paths are followed by
+:mod:`sacflow.config.dotted`.
 """
 
 from __future__ import annotations
@@ -19,10 +20,10 @@ from typing import Any
 
 from pydantic import ValidationError
 
-from sacflow.dotted import set_dotted
+from sacflow.config.dotted import set_dotted
+from sacflow.config.problems import drop_consequential, problem_line, report
+from sacflow.config.schema import Case, Measured
 from sacflow.errors import ConfigError
-from sacflow.problems import drop_consequential, problem_line, report
-from sacflow.schema import Case, Measured
 
 __all__ = [
     "apply_overrides",
@@ -164,7 +165,7 @@ def check_surface_file(case: Case, source: str) -> None:
     surface = case.surface
     if not isinstance(surface, Measured):
         return
-    from sacflow.store import read_measured_surface  # xarray only when needed
+    from sacflow.storage.run_file import read_measured_surface  # xarray only when needed
 
     try:
         read_measured_surface(surface.path, surface.format, surface.variable)
@@ -183,8 +184,8 @@ def check_initial_state_file(case: Case, source: str) -> None:
     """
     if case.initial_state is None:
         return
-    from sacflow.initial import InitialStateError
-    from sacflow.initial_state_file import check_initial_state  # netCDF only when needed
+    from sacflow.mechanics.initial_state import InitialStateError
+    from sacflow.storage.initial_state_file import check_initial_state  # netCDF only when needed
 
     try:
         check_initial_state(case)

@@ -1,7 +1,8 @@
 """Reading the stored state a case starts from (``initial_state = { run, step, offset }``).
 
 The only module that reads a source run for a chained case; the solver receives the arrays as a
-:class:`~sacflow.initial.StoredState` (:func:`read_initial_state`), as it receives a measured
+:class:`~sacflow.mechanics.initial_state.StoredState` (:func:`read_initial_state`), as it receives
+a measured
 surface. Errors name ``initial_state`` and the fix.
 """
 
@@ -13,8 +14,8 @@ from pathlib import Path
 import netCDF4
 import numpy as np
 
-from sacflow.initial import InitialStateError, StoredState
-from sacflow.schema import Case
+from sacflow.config.schema import Case
+from sacflow.mechanics.initial_state import InitialStateError, StoredState
 
 __all__ = [
     "InitialStateError",

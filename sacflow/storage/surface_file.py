@@ -1,7 +1,8 @@
 """Measured surfaces: read a height file (netCDF or text columns) into arrays.
 
 The only module that reads surface files; the solver receives the heights as a
-:class:`~sacflow.state.MeasuredSurface` (:func:`load_surface`), and :mod:`sacflow.config` checks
+:class:`~sacflow.solver.state.MeasuredSurface` (:func:`load_surface`), and
+:mod:`sacflow.storage.case_file` checks
 the file when a case is loaded (:func:`read_measured_surface`).
 """
 
@@ -11,9 +12,9 @@ from pathlib import Path
 
 import numpy as np
 
+from sacflow.config.schema import Case, Measured
 from sacflow.errors import SacflowError
-from sacflow.schema import Case, Measured
-from sacflow.state import MeasuredSurface
+from sacflow.solver.state import MeasuredSurface
 
 __all__ = ["TEXT_SURFACE_FORMAT", "load_surface", "read_measured_surface"]
 

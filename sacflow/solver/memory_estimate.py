@@ -3,10 +3,10 @@
 A grid too large for the machine must be refused with a clear message by ``sacflow validate``
 and before ``sacflow run`` allocates its operators, not end in numpy's ``_ArrayMemoryError``
 half-way through the set-up. :func:`estimate_memory` derives the peak resident memory of a run
-from the shapes of the arrays the solver allocates (:class:`sacflow.solver.Simulation`):
+from the shapes of the arrays the solver allocates (:class:`sacflow.solver.simulation.Simulation`):
 
 * the contact compliance (DC-FFT on the contact window, :class:`~sacflow.kernels.fft.Convolution`)
-  and the contact solver's window arrays (:mod:`sacflow.contact`);
+  and the contact solver's window arrays (:mod:`sacflow.mechanics.contact`);
 * the pressure → stress operator on the body grid: ``6 nz`` complex kernel spectra on the
   zero-padded body grid, and while it is built the kernel coefficients on that grid;
 * for a plastic body, the eigenstrain operator (:class:`~sacflow.kernels.eigenstrain.
@@ -14,7 +14,7 @@ from the shapes of the arrays the solver allocates (:class:`sacflow.solver.Simul
   (:func:`~sacflow.kernels.eigenstrain.operator_bytes`) and the transient of its set-up
   (:func:`~sacflow.kernels.eigenstrain.setup_bytes`);
 * the solver state (plastic strain, residual stress), the working arrays of one increment's
-  fixed point, the Anderson history (:mod:`sacflow.anderson`) and the GMRES basis of the
+  fixed point, the Anderson history (:mod:`sacflow.solver.anderson`) and the GMRES basis of the
   Newton–Krylov fallback;
 * the fields of the per-step states handed to the store: the state being written and the next
   one being made (the runner's loop holds one while the solver makes the next);
@@ -30,18 +30,16 @@ see :data:`LIBRARY_BYTES` and the module tests.
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
-from pathlib import Path
 
 from sacflow.errors import GridTooLargeError
-from sacflow.layout import BodyGrid, body_grid
+from sacflow.machine.resources import available_memory
+from sacflow.solver.layout import BodyGrid, body_grid
 
 __all__ = [
     "BodyGrid",
     "MemoryEstimate",
     "MemoryItem",
-    "available_memory",
     "body_grid",
     "check_memory",
     "estimate_memory",
@@ -59,17 +57,18 @@ COMPONENTS = 6
 #: (2026-11-25). The larger figures are kept: the estimate is meant to be the peak or above.
 LIBRARY_BYTES = {"elastic": 90 * 2**20, "plastic": 270 * 2**20}
 #: Window-sized arrays of the contact solver (pressure, gap, conjugate direction, displacement,
-#: its update, masks, the initial gap and the result's copies; :mod:`sacflow.contact`).
+#: its update, masks, the initial gap and the result's copies; :mod:`sacflow.mechanics.contact`).
 CONTACT_ARRAYS = 14
 #: Volume tensor fields of the plastic state (plastic strain, residual stress) and of one
 #: increment's fixed point besides the Anderson history and the GMRES basis
-#: (:meth:`sacflow.solver.Simulation._fixed_point`): the iterate, the pressure stress and its
+#: (:meth:`sacflow.solver.simulation.Simulation._fixed_point`): the iterate, the pressure stress
+#: and its
 #: reshaped copy, the residual stress of the iterate and their sum, the trial stress and
 #: ``2μ x``, the returned increment ``G(x)``, the last evaluation's fields.
 PLASTIC_STATE_TENSORS = 2
 FIXED_POINT_TENSORS = 9
 #: Tensor fields the Anderson mixer holds besides its ``2 × depth`` differences: the last
-#: iterate and residual, the residual and the mixed iterate (:class:`sacflow.anderson.
+#: iterate and residual, the residual and the mixed iterate (:class:`sacflow.solver.anderson.
 #: AndersonMixer`).
 ANDERSON_EXTRA = 4
 #: Part of the cuboid box the Anderson history is counted on: it is kept on the support of the
@@ -83,7 +82,8 @@ ANDERSON_SUPPORT = 0.25
 GMRES_RESTART = 30
 NEWTON_EXTRA = 3
 #: Tensor (6 components) and scalar volume fields of one state with volume output
-#: (:meth:`sacflow.solver.Simulation._volume_fields` and ``_state``): plastic strain, residual
+#: (:meth:`sacflow.solver.simulation.Simulation._volume_fields` and ``_state``): plastic strain,
+#: residual
 #: stress and stress; equivalent plastic strain, von Mises and yield stress; a plastic body's
 #: state adds the restart copies of the plastic strain and the equivalent plastic strain.
 STATE_TENSORS = {"elastic": 3, "plastic": 4}
@@ -93,11 +93,6 @@ STATE_SURFACES = 9
 #: States alive at once: the one the runner holds while the solver makes the next (or while
 #: the store consolidates the run, reading one stored step at a time).
 STATES_ALIVE = 2
-#: Where Linux says how much memory can be given to a process without swapping.
-MEMINFO = Path("/proc/meminfo")
-#: The memory limit and use of this process's cgroup (v2), when it has one.
-CGROUP_LIMIT = Path("/sys/fs/cgroup/memory.max")
-CGROUP_USAGE = Path("/sys/fs/cgroup/memory.current")
 #: Items named in the error message.
 SHOWN_ITEMS = 3
 
@@ -224,7 +219,8 @@ def _solver_state(grid: BodyGrid, case) -> tuple[MemoryItem, MemoryItem]:
     """Plastic state, one increment's fixed point and Anderson history; the GMRES basis.
 
     The Anderson history is kept on the support of the plastic strain increment
-    (:class:`sacflow.anderson.AndersonMixer`), counted as :data:`ANDERSON_SUPPORT` of the box.
+    (:class:`sacflow.solver.anderson.AndersonMixer`), counted as :data:`ANDERSON_SUPPORT` of the
+    box.
     """
     tensor = _tensor_bytes(grid)
     depth = case.solver.anderson_depth if case.solver.acceleration == "anderson" else 0
@@ -263,7 +259,7 @@ def estimate_memory(case) -> MemoryEstimate:
 
     Parameters
     ----------
-    case : sacflow.schema.Case
+    case : sacflow.config.schema.Case
         The validated case.
 
     Returns
@@ -273,7 +269,7 @@ def estimate_memory(case) -> MemoryEstimate:
         allocates (module docstring); calibrated against measured peaks, on the high side
         (the GMRES basis of a stalled fixed point is counted).
     """
-    from sacflow.schema import Elastic
+    from sacflow.config.schema import Elastic
 
     grid = body_grid(case)
     plastic = not isinstance(case.body.hardening, Elastic)
@@ -301,63 +297,12 @@ def estimate_memory(case) -> MemoryEstimate:
     return MemoryEstimate(total, tuple(items), grid, max(total, stalled), contingent)
 
 
-def _read_int(path: Path) -> int | None:
-    """Read an integer file of the kernel (cgroup files), or None (absent, ``max``, unreadable)."""
-    try:
-        text = path.read_text().strip()
-    except OSError:
-        return None
-    return int(text) if text.isdigit() else None
-
-
-def available_memory() -> int:
-    """Memory [bytes] this process can still use without swapping.
-
-    Linux's ``MemAvailable`` (``/proc/meminfo``: free memory plus what the page cache and
-    reclaimable slabs can give back), else the available physical pages (``os.sysconf``);
-    never more than what is left below the limit of this process's cgroup (a container's or a
-    batch job's memory limit).
-    """
-    available = _meminfo_available()
-    if available is None:
-        available = _sysconf_available()
-    limit, usage = _read_int(CGROUP_LIMIT), _read_int(CGROUP_USAGE)
-    if limit is not None:
-        available = min(available, max(limit - (usage or 0), 0))
-    return available
-
-
-def _meminfo_available() -> int | None:
-    """``MemAvailable`` of :data:`MEMINFO` [bytes], or None without it."""
-    try:
-        with open(MEMINFO) as fh:
-            for line in fh:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024  # kB
-    except (OSError, ValueError, IndexError):
-        pass
-    return None
-
-
-def _sysconf_available() -> int:
-    """Available (else all) physical pages times the page size [bytes]."""
-    page = os.sysconf("SC_PAGE_SIZE")
-    for name in ("SC_AVPHYS_PAGES", "SC_PHYS_PAGES"):
-        try:
-            pages = os.sysconf(name)
-        except (ValueError, OSError):
-            continue
-        if pages > 0:
-            return int(pages) * int(page)
-    raise GridTooLargeError("cannot tell how much memory this machine has")  # pragma: no cover
-
-
 def check_memory(case, available: int | None = None) -> MemoryEstimate:
     """Estimate the memory of ``case`` and refuse it when the machine does not have it.
 
     Parameters
     ----------
-    case : sacflow.schema.Case
+    case : sacflow.config.schema.Case
         The validated case.
     available : int, optional
         Bytes available; default :func:`available_memory` now.

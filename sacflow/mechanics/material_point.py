@@ -1,8 +1,9 @@
 """Material-point driver: uniaxial and shear cycles of a hardening law (strain or stress control).
 
 Checks a parameter set (isotropic law, kinematic hardening) on the loops it gives before it goes
-into a contact run: the same return mapping as the solver (:func:`sacflow.plasticity.
-radial_return`, or :func:`sacflow.kinematic.kinematic_return` with a backstress), driven through
+into a contact run: the same return mapping as the solver (:func:`sacflow.mechanics.plasticity.
+radial_return`, or :func:`sacflow.mechanics.kinematic.kinematic_return` with a backstress), driven
+through
 a cyclic path of one controlled component, the other stress components held at zero.
 
 Control (tensor components, order 11, 22, 33, 12, 13, 23):
@@ -26,9 +27,9 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
-from sacflow.kinematic import kinematic_from_schema, kinematic_return
-from sacflow.plasticity import hardening_from_schema, radial_return
-from sacflow.state import COMPONENTS
+from sacflow.mechanics.kinematic import kinematic_from_schema, kinematic_return
+from sacflow.mechanics.plasticity import hardening_from_schema, radial_return
+from sacflow.solver.state import COMPONENTS
 
 __all__ = ["MaterialPointError", "cycle_path", "material_cycles"]
 

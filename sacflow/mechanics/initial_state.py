@@ -1,8 +1,9 @@
 """Initial states of the body before any contact: depth profiles to arrays, and their checks.
 
 A body may start with a residual stress ``σ11(x3), σ22(x3)`` (case hardening) and an
-equivalent plastic strain ``p0(x3)`` (a work-hardened layer): :class:`sacflow.schema.
-InitialResidualStress` and :class:`sacflow.schema.InitialHardening`. Both are piecewise linear
+equivalent plastic strain ``p0(x3)`` (a work-hardened layer): :class:`sacflow.config.schema.
+InitialResidualStress` and :class:`sacflow.config.schema.InitialHardening`. Both are piecewise
+linear
 in depth, constant beyond their first and last points, and evaluated at the cuboid centres.
 No I/O.
 """
@@ -14,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sacflow.errors import SacflowError
-from sacflow.plasticity import HardeningLaw, von_mises
+from sacflow.mechanics.plasticity import HardeningLaw, von_mises
 
 __all__ = [
     "InitialStateError",

@@ -4,7 +4,8 @@
 campaign file), one row per key with its type, default, constraints and description, and one
 section per variant of a discriminated union (``body.hardening`` by ``law``, ``surface`` and
 ``load_path`` by ``kind``). Everything comes from the JSON schema pydantic makes of the models
-of :mod:`sacflow.schema` (:func:`sacflow.schema.case_json_schema`), so the page follows the
+of :mod:`sacflow.config.schema` (:func:`sacflow.config.schema.case_json_schema`), so the page
+follows the
 models; ``tests/test_schema_doc.py`` fails when the committed page is out of date.
 """
 
@@ -31,7 +32,7 @@ BOUNDS = (("minimum", "≥"), ("exclusiveMinimum", ">"), ("maximum", "≤"),
 _HEADER = f"""# Case file format
 
 Reference of every table and key of a case file (TOML) and of a campaign file, generated from
-the schema (the pydantic models of `sacflow/schema.py`) by
+the schema (the pydantic models of `sacflow/config/schema.py`) by
 
 ```
 {COMMAND}
@@ -46,7 +47,7 @@ choice. Any key can be overridden on the command line with `--set dotted.key=val
 
 def case_format_markdown() -> str:
     """Return the Markdown reference of the case and campaign formats (``docs/case-format.md``)."""
-    from sacflow.schema import Campaign, _finite_json, case_json_schema
+    from sacflow.config.schema import Campaign, _finite_json, case_json_schema
 
     lines = [_HEADER]
     lines += _document(case_json_schema(), "Case file")

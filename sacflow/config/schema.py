@@ -22,8 +22,8 @@ from typing import TYPE_CHECKING, Annotated, Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 from pydantic_core import PydanticCustomError
 
-from sacflow.reference import HertzContact, composite_modulus, effective_radius, hertz_contact
-from sacflow.state import SCALAR_FIELDS, SURFACE_FIELDS, VOLUME_FIELDS
+from sacflow.mechanics.hertz import HertzContact, composite_modulus, effective_radius, hertz_contact
+from sacflow.solver.state import SCALAR_FIELDS, SURFACE_FIELDS, VOLUME_FIELDS
 
 __all__ = [
     "Body",
@@ -127,7 +127,8 @@ else:
 def field_error(field: str, message: str) -> PydanticCustomError:
     """Return a validation error for a cross-field check that names ``field`` (dotted path).
 
-    ``field`` is relative to the model that raises it; :mod:`sacflow.config` appends it to the
+    ``field`` is relative to the model that raises it; :mod:`sacflow.storage.case_file` appends it
+    to the
     error location. ``message`` must not contain braces.
     """
     return PydanticCustomError(FIELD_ERROR, message, {"field": field})
@@ -276,9 +277,10 @@ class _Plastic(Model):
     """Base of the plastic laws: the rules every law shares.
 
     The hardening-law models are the one place where a law's rules live: whatever they accept,
-    :func:`sacflow.plasticity.hardening_from_schema` builds and the radial return runs with
+    :func:`sacflow.mechanics.plasticity.hardening_from_schema` builds and the radial return runs
+    with
     (σ_Y finite, positive and non-decreasing in εp). The runtime classes of
-    :mod:`sacflow.plasticity` validate their arguments through these models.
+    :mod:`sacflow.mechanics.plasticity` validate their arguments through these models.
     """
 
     depth_profile: DepthProfile | None = Field(
@@ -863,13 +865,21 @@ class Case(Model):
         Contact modulus of body and counter-body; effective radius per direction from both
         bodies' principal radii, and their geometric mean when the two differ.
         """
+        r1, r2 = self.effective_radii()
+        return hertz_contact(self.max_load, math.sqrt(r1 * r2), self.contact_modulus())
+
+    def contact_modulus(self) -> float:
+        """Contact modulus E* of body and counter-body [Pa] (rigid counter-body: E, ν only)."""
         cb = self.counterbody
-        e_star = composite_modulus(self.body.E, self.body.nu, cb.E, cb.nu or 0.0)
+        return composite_modulus(self.body.E, self.body.nu, cb.E, cb.nu or 0.0)
+
+    def effective_radii(self) -> tuple[float, float]:
+        """Effective radii of curvature (R1, R2) along x1, x2 of the two bodies [m]."""
         r1, r2 = (
             effective_radius(rb, rc)
-            for rb, rc in zip(self.body.radii, cb.principal_radii, strict=True)
+            for rb, rc in zip(self.body.radii, self.counterbody.principal_radii, strict=True)
         )
-        return hertz_contact(self.max_load, math.sqrt(r1 * r2), e_star)
+        return (r1, r2)
 
     def window_extent(self) -> tuple[float, float]:
         """Full size (L1, L2) of the contact window [m]."""
@@ -961,7 +971,7 @@ class Case(Model):
     def _check_track(self) -> None:
         """Check that the body grid, which covers every load position, stays within MAX_CELLS.
 
-        The positions are those :func:`sacflow.layout.plan_steps` gives at the segments' ends
+        The positions are those :func:`sacflow.solver.layout.plan_steps` gives at the segments' ends
         (a roll's direction is normalised by its model; passes stay on the same track).
         """
         cell = self.cell_size()
@@ -1076,7 +1086,7 @@ def identity_differences(stored: dict[str, Any], current: dict[str, Any]) -> lis
 
     Returns lines such as ``"grid.nx: 128 -> 32"``, in path order.
     """
-    from sacflow.dotted import flatten
+    from sacflow.config.dotted import flatten
 
     a, b = flatten(stored), flatten(current)
     missing = "(absent)"

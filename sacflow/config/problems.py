@@ -1,10 +1,11 @@
 """Validation problems as one-line messages: the field path, what is wrong, the fix.
 
-Shared by case files (:mod:`sacflow.config`) and campaign files (:mod:`sacflow.campaign`): a
+Shared by case files (:mod:`sacflow.storage.case_file`) and campaign files
+(:mod:`sacflow.campaign`): a
 pydantic error becomes ``path: what is wrong[: field meaning][; got value]`` (:func:`problem_line`),
 and a list of problems becomes one screen, ``source: invalid case (n problems)`` then one indented
 line each (:func:`report`). The type helpers (:func:`strip_annotated`, :func:`is_union`, ...)
-follow field annotations through the :class:`~sacflow.schema.Case` schema.
+follow field annotations through the :class:`~sacflow.config.schema.Case` schema.
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ import annotated_types
 from pydantic import BaseModel
 from pydantic.fields import FieldInfo
 
-from sacflow.schema import FIELD_ERROR, Case
+from sacflow.config.schema import FIELD_ERROR, Case
 
 __all__ = [
     "MAX_PROBLEMS",

@@ -27,8 +27,8 @@ from typing import Any
 import numpy as np
 from pydantic import BaseModel, ValidationError
 
-from sacflow import schema
-from sacflow.reference import von_mises  # one implementation, re-exported here
+from sacflow.config import schema
+from sacflow.mechanics.hertz import von_mises  # one implementation, re-exported here
 
 __all__ = ["DepthScaled", "Elastic", "HardeningLaw", "Linear", "PerfectlyPlastic",
            "ReturnMappingError", "ReturnResult", "ReturnTangent", "Swift", "Tabular", "deviator",
@@ -122,7 +122,7 @@ class Swift(_Joint):
     """Swift law σ_Y = B (C + s p)^n, s = 1e6 for ``strain_unit="microstrain"`` (seed eq. (3.1)).
 
     The seed's bearing steel (B = 1240 MPa, C = 30, n = 0.085, micro-strain) has
-    σ_Y0 = B C^n ≈ 1655.7 MPa. The arguments obey :class:`sacflow.schema.Swift` (C > 0,
+    σ_Y0 = B C^n ≈ 1655.7 MPa. The arguments obey :class:`sacflow.config.schema.Swift` (C > 0,
     0 < n < 1, B C^n a finite positive stress); a ``ValueError`` names the field otherwise.
     """
 
@@ -143,7 +143,7 @@ class Swift(_Joint):
 
 
 class Linear(HardeningLaw):
-    """Linear hardening σ_Y = σ_Y0 + H p (rules of :class:`sacflow.schema.Linear`: H >= 0)."""
+    """Linear hardening σ_Y = σ_Y0 + H p (:class:`sacflow.config.schema.Linear`: H >= 0)."""
 
     def __init__(self, yield_stress: float, modulus: float):
         law = _validated(schema.Linear,
@@ -160,7 +160,7 @@ class Linear(HardeningLaw):
 
 
 class PerfectlyPlastic(Linear):
-    """Perfect plasticity σ_Y = σ_Y0 (rules of :class:`sacflow.schema.PerfectlyPlastic`)."""
+    """Perfect plasticity σ_Y = σ_Y0 (rules of :class:`sacflow.config.schema.PerfectlyPlastic`)."""
 
     def __init__(self, yield_stress: float):
         law = _validated(schema.PerfectlyPlastic,
@@ -183,7 +183,7 @@ class Elastic(HardeningLaw):
 class Tabular(_Joint):
     """Piecewise-linear measured curve through (``plastic_strain``, ``stress``) points.
 
-    The points obey :class:`sacflow.schema.Tabular` (strains from 0, strictly increasing;
+    The points obey :class:`sacflow.config.schema.Tabular` (strains from 0, strictly increasing;
     stresses positive and non-decreasing). Beyond the last point the curve stays at the last
     stress with slope 0 (``beyond_last="constant"``, default) or continues with the last
     segment's slope (``"extrapolate"``); the radial return's hardening modulus follows. At kinks
@@ -217,7 +217,7 @@ class DepthScaled(_Joint):
     """σ_Y(p, x3) = factor(x3) · law(p): factor piecewise linear in depth, constant beyond ends.
 
     For surface-hardened steels (the seed's stated next step); ``depth`` is then required.
-    ``depth`` and ``factor`` obey :class:`sacflow.schema.DepthProfile`.
+    ``depth`` and ``factor`` obey :class:`sacflow.config.schema.DepthProfile`.
     """
 
     def __init__(self, law: HardeningLaw, depth, factor):
@@ -275,7 +275,8 @@ def hardening_from_schema(obj) -> HardeningLaw:
     """Build a law from a schema model or any object (SimpleNamespace, dict) with a ``law`` field.
 
     ``law`` in {"elastic", "swift", "linear", "perfectly_plastic", "tabular"} with the fields
-    of :mod:`sacflow.schema`'s model of that law (B, C, n, strain_unit / yield_stress, modulus
+    of :mod:`sacflow.config.schema`'s model of that law (B, C, n, strain_unit / yield_stress,
+    modulus
     / yield_stress / plastic_strain, stress, beyond_last); an optional ``depth_profile``
     (``depth``, ``factor``) wraps the law in :class:`DepthScaled`. Anything but a schema model
     is validated by that model first: the schema is the one source of the laws' rules, and
@@ -380,7 +381,7 @@ def radial_return(trial_stress, eqps, law: HardeningLaw, mu: float, depth=None,
         raise ValueError("eqps (accumulated equivalent plastic strain) must be >= 0")
     d_all = None if depth is None else np.broadcast_to(np.asarray(depth, float), lead).reshape(-1)
     sig2 = np.ascontiguousarray(sig.reshape(-1, 6))
-    from sacflow.equivalent_stress import equivalent_stress  # numba: plastic runs only
+    from sacflow.mechanics.equivalent_stress import equivalent_stress  # numba: plastic runs only
 
     q_tr = equivalent_stress(sig2)  # one pass over the box, no full-size deviator
     plastic = (q_tr > law.yield_stress(p_old, d_all)).reshape(lead)

@@ -2,7 +2,8 @@
 
 The plastic strain increment of a load step is such a fixed point (seed §1.7, Figs. 4–5): ``G``
 is the J2 radial return of the trial stress, piecewise smooth in ``x``. Sweeps accelerated by
-Anderson mixing (:mod:`sacflow.anderson`; Walker & Ni, SIAM J. Numer. Anal. 49 (2011) 1715) solve
+Anderson mixing (:mod:`sacflow.solver.anderson`; Walker & Ni, SIAM J. Numer. Anal. 49 (2011) 1715)
+solve
 most steps in a few evaluations. When the plastic zone changes (cells entering or leaving the
 active set) the sweeps can stall; the solver then switches to semismooth Newton on
 ``F(x) = G(x) − x`` (Qi & Sun, Math. Program. 58 (1993) 353): the generalised Jacobian
@@ -27,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from sacflow.anderson import AndersonMixer
+from sacflow.solver.anderson import AndersonMixer
 
 __all__ = [
     "Evaluation",

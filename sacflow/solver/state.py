@@ -1,6 +1,7 @@
 """Plain containers passed from the solver to the store: no xarray, no I/O.
 
-The solver yields one :class:`State` per load increment; :mod:`sacflow.store` is the only module
+The solver yields one :class:`State` per load increment; :mod:`sacflow.storage.run_file` is the
+only module
 that turns it into labelled data (DESIGN §4). All arrays are float64 in SI units on the body-fixed
 grid described by :class:`GridCoords`.
 """
@@ -114,8 +115,10 @@ class State:
     error; plasticity: relative fixed-point residual of the plastic strain increment; coupling:
     relative change of the residual surface displacement) and whether it met its tolerance;
     ``converged`` is all three; ``pass_index`` (stored as ``pass``) the rolling pass the step
-    belongs to (:class:`~sacflow.layout.StepPlan`); ``substeps`` the sub-increments the step was
-    solved in (1, or more after a cutback: :meth:`sacflow.solver.Simulation.run`). ``surface``
+    belongs to (:class:`~sacflow.solver.layout.StepPlan`); ``substeps`` the sub-increments the step
+    was
+    solved in (1, or more after a cutback: :meth:`sacflow.solver.simulation.Simulation.run`).
+    ``surface``
     maps names of :data:`SURFACE_FIELDS` to (nx1, nx2) arrays; ``volume`` maps names of
     :data:`VOLUME_FIELDS` to arrays, and is empty on steps where volume output is skipped
     (Output.volume_every; repeated rolling stores it at the end of every pass too).

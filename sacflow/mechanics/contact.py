@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from sacflow.errors import ConvergenceError
-from sacflow.threads import single_threaded_blas
+from sacflow.machine.threads import single_threaded_blas
 
 __all__ = ["ContactResult", "solve_contact"]
 
