@@ -9,8 +9,7 @@ eigenstrain operators :func:`residual_stress`, :func:`residual_displacement`.
 
 from __future__ import annotations
 
-from importlib import import_module
-from typing import Any
+from sacflow.lazy_exports import lazy_exports
 
 __all__ = [
     "ConfigError",
@@ -36,11 +35,4 @@ _EXPORTS = {
 }
 
 
-def __getattr__(name: str) -> Any:
-    if name in _EXPORTS:
-        return getattr(import_module(_EXPORTS[name]), name)
-    raise AttributeError(f"module 'sacflow' has no attribute {name!r}")
-
-
-def __dir__() -> list[str]:
-    return sorted([*globals(), *__all__])
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, __all__)
