@@ -23,7 +23,7 @@ import time
 from pathlib import Path
 
 from sacflow.campaign import load_campaign, run_campaign
-from sacflow.compare.plots import _scale
+from sacflow.compare.plots import display_scale
 from sacflow.errors import SacflowError
 from sacflow.studies.dent_study import (
     dent_summary,
@@ -92,7 +92,7 @@ def _print_table(summary) -> None:
     shown = {}
     for name in COLUMNS:
         units = summary[name].attrs.get("units", "1")
-        factor, unit = _scale(units, summary[name].values)
+        factor, unit = display_scale(units, summary[name].values)
         shown[name] = (factor, unit)
     head = ["A [µm]", "w [µm]", "W [N]"] + [f"{n} [{u}]" for n, (_, u) in shown.items()]
     print("  ".join(head))

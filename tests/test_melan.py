@@ -243,16 +243,16 @@ def test_melan_stage_on_a_repeated_rolling_run(tmp_path, capsys):
 
 def test_melan_stage_refuses_what_it_does_not_cover():
     from sacflow.compare.core import CompareError
-    from sacflow.compare.melan import _check_case
+    from sacflow.compare.melan import check_melan_case
     from sacflow.storage.case_file import load_case
 
     with pytest.raises(CompareError, match="perfectly plastic"):
-        _check_case(load_case(ROOT / "configs" / "rolling-smooth.toml"))
+        check_melan_case(load_case(ROOT / "configs" / "rolling-smooth.toml"))
     with pytest.raises(CompareError, match="friction"):
-        _check_case(load_case(ROOT / "configs" / "rolling-cycles-shakedown.toml",
+        check_melan_case(load_case(ROOT / "configs" / "rolling-cycles-shakedown.toml",
                               ["friction.coefficient=0.2"]))
     with pytest.raises(CompareError, match="along x1"):
-        _check_case(load_case(ROOT / "configs" / "rolling-cycles-shakedown.toml",
+        check_melan_case(load_case(ROOT / "configs" / "rolling-cycles-shakedown.toml",
                               ["load_path.1.direction=[0.0, 1.0]"]))
 
 

@@ -63,7 +63,7 @@ def _default_step(case: Any, steps: np.ndarray) -> int:
     return chosen[len(chosen) // 2]
 
 
-def _check_case(case: Any) -> float:
+def check_melan_case(case: Any) -> float:
     """σ_Y of an elastic–perfectly plastic, frictionless case rolled along x1, else an error."""
     law = case.body.hardening
     if getattr(law, "law", None) != "perfectly_plastic" or law.depth_profile is not None \
@@ -128,7 +128,7 @@ def melan_check(run: str | Path | xr.Dataset, step: int | None = None) -> xr.Dat
     ds = load_run(run)
     require(ds, "pressure", "load_x2", stage=STAGE)
     case = case_of(ds)
-    yield_stress = _check_case(case)
+    yield_stress = check_melan_case(case)
     steps = ds["step"].values
     if step is None:
         step = _default_step(case, steps)

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from sacflow.compare.plots import _scale, plot
+from sacflow.compare.plots import display_scale, plot
 
 __all__ = ["summary", "summary_numbers", "write"]
 
@@ -60,7 +60,7 @@ def write(result: xr.Dataset, out_dir: str | Path, stem: str, **plot_options) ->
 def _value(value: float, units: str) -> str:
     if not np.isfinite(value):
         return "n/a"
-    factor, shown = _scale(units, [value])
+    factor, shown = display_scale(units, [value])
     if units == "1" and value != 0 and (abs(value) < 1e-2 or abs(value) >= 1e4):
         return f"{value:.4g}"
     return f"{value * factor:.4g} {shown if shown != '1' else ''}".rstrip()

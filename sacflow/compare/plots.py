@@ -20,12 +20,12 @@ from sacflow.compare.melan import plot_melan
 from sacflow.compare.passes import plot_passes
 from sacflow.mechanics.hertz import hertz_contact, hertz_pressure
 
-__all__ = ["PLOTS", "plot"]
+__all__ = ["PLOTS", "display_scale", "plot"]
 
 UM, MPA, GPA = 1e6, 1e-6, 1e-9
 
 
-def _scale(units: str, values) -> tuple[float, str]:
+def display_scale(units: str, values) -> tuple[float, str]:
     """Display factor and unit for SI ``units``, chosen from the size of ``values``."""
     finite = np.abs(np.asarray(values, dtype=float))
     finite = finite[np.isfinite(finite)]
@@ -70,8 +70,8 @@ def plot_hertz_check(result: xr.Dataset) -> Figure:
     """Load–approach vs Hertz (left), pressure along x1 at max load vs Hertz (right)."""
     fig, axes = _figure(result, "Hertz check", (1, 2), (10.0, 4.2))
     left, right = axes[0]
-    fw, wu = _scale("N", result["load"])
-    fd, du = _scale("m", result["approach_hertz"])
+    fw, wu = display_scale("N", result["load"])
+    fd, du = display_scale("m", result["approach_hertz"])
     loads = np.linspace(0.0, result.attrs["load_max"], 101)
     radius, e_star = result.attrs["effective_radius"], result.attrs["e_star"]
     curve = [hertz_contact(w, radius, e_star).approach for w in loads]
@@ -106,8 +106,8 @@ def plot_load_approach(result: xr.Dataset) -> Figure:
     """Plot the loading, unloading and shifted unloading branches with the elastic Hertz curve."""
     fig, axes = _figure(result, "load vs approach")
     ax = axes[0, 0]
-    fw, wu = _scale("N", result["hertz_load"])
-    fd, du = _scale("m", result["hertz_approach"])
+    fw, wu = display_scale("N", result["hertz_load"])
+    fd, du = display_scale("m", result["hertz_approach"])
     ax.plot(result["hertz_approach"] * fd, result["hertz_load"] * fw, "k-", label="Hertz (elastic)")
     branch = result["branch"].values
     load, approach = result["load"].values, result["approach"].values
@@ -254,7 +254,7 @@ def plot_track(result: xr.Dataset) -> Figure:
     fig, axes = _figure(result, "residual surface displacement on the track")
     ax = axes[0, 0]
     end = float(result["track_end"])
-    fu, unit = _scale("m", result["residual_displacement"])
+    fu, unit = display_scale("m", result["residual_displacement"])
     x = (result["x1"].values - end) * UM
     ax.plot(x, result["residual_displacement"] * fu, "-", label="residual displacement")
     plateau, tol = float(result["plateau"]), result.attrs["tolerance"]
@@ -317,7 +317,7 @@ def plot_campaign_summary(result: xr.Dataset, result_name: str = "max_plastic_st
         raise KeyError(f"no result {result_name!r}; choose one of {choices}")
     params = result.attrs.get("parameters", "").split()
     meta = result[result_name].attrs
-    fy, uy = _scale(meta.get("units", "1"), result[result_name])
+    fy, uy = display_scale(meta.get("units", "1"), result[result_name])
     fig, axes = _figure(result, f"{meta.get('long_name', result_name)}")
     ax = axes[0, 0]
     y = result[result_name].values * fy
@@ -348,13 +348,13 @@ def plot_case_vs_reference(result: xr.Dataset) -> Figure:
     dims = result.attrs.get("interpolated_dims", "").split()
     units = result["reference_value"].attrs.get("units", "1")
     both = np.r_[result["reference_value"].values, result["run_value"].values]
-    fv, uv = _scale(units, both)
+    fv, uv = display_scale(units, both)
     var = result.attrs["variable"]
     if len(dims) == 1:
         fig, axes = _figure(result, f"{var} vs reference", (2, 1), (7.0, 6.0))
         top, bottom = axes[:, 0]
         bottom.sharex(top)
-        fx, ux = _scale(result[dims[0]].attrs.get("units", "1"), result[dims[0]])
+        fx, ux = display_scale(result[dims[0]].attrs.get("units", "1"), result[dims[0]])
         order = np.argsort(result[dims[0]].values)
         x = result[dims[0]].values[order] * fx
         top.plot(
@@ -366,7 +366,7 @@ def plot_case_vs_reference(result: xr.Dataset) -> Figure:
         )
         top.plot(x, result["run_value"].values[order] * fv, "-", label="run (interpolated)")
         top.set(ylabel=f"{var} [{uv}]")
-        fd, ud = _scale(units, result["difference"])
+        fd, ud = display_scale(units, result["difference"])
         bottom.plot(x, result["difference"].values[order] * fd, "o-", ms=3, label="run − reference")
         bottom.axhline(0.0, color="k", lw=0.8)
         diff = result["difference"].values * fd
@@ -387,7 +387,7 @@ def plot_case_vs_reference(result: xr.Dataset) -> Figure:
         ax.set(xlabel=f"reference {var} [{uv}]", ylabel=f"run {var} [{uv}]")
         ax.legend()
         bottom = ax
-    fd, ud = _scale(units, result["difference"])
+    fd, ud = display_scale(units, result["difference"])
     _note(
         bottom,
         f"max |diff| {float(result['max_abs_difference']) * fd:.4g} {ud}, "
