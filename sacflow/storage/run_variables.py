@@ -51,7 +51,7 @@ class Variable(NamedTuple):
     dtype: str = "f8"  # netCDF type; "bool" is stored as i1 flags
 
 
-#: Every stored variable: dims, units, long name, netCDF type. The only place metadata lives.
+#: Every stored variable: dims, units, long name, netCDF type; the one place run metadata lives.
 VARIABLES: dict[str, Variable] = {
     # per-step scalars
     "load": Variable(SCALAR, "N", "applied normal load"),
