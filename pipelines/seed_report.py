@@ -61,7 +61,7 @@ def build(name: str, overrides: list[str]):
 
 def run(name: str, out: Path, overrides: list[str]) -> dict:
     from sacflow.runner import run_case
-    from sacflow.storage.run_file import open_run
+    from sacflow.storage.run_reader import open_run
 
     case = build(name, overrides)
     t0 = time.perf_counter()

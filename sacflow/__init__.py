@@ -27,7 +27,7 @@ __version__ = "0.1.0"
 _EXPORTS = {
     "ConfigError": "sacflow.errors",
     "load_case": "sacflow.storage.case_file",
-    "open_run": "sacflow.storage.run_file",
+    "open_run": "sacflow.storage.run_reader",
     "open_campaign": "sacflow.campaign.opening",
     "residual_stress": "sacflow.kernels.eigenstrain",
     "residual_displacement": "sacflow.kernels.eigenstrain",

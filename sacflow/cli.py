@@ -212,7 +212,7 @@ def _validate(args: argparse.Namespace) -> int:
 
 
 def _info(args: argparse.Namespace) -> int:
-    from sacflow.storage.run_file import run_info
+    from sacflow.storage.run_reader import run_info
 
     status = 0
     for path in args.runs:

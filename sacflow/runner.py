@@ -32,14 +32,8 @@ from sacflow.errors import BoxTooShallowError
 from sacflow.solver.memory_estimate import check_memory
 from sacflow.solver.state import GridCoords, State
 from sacflow.storage.output_dir import prepare_output_dir
-from sacflow.storage.run_file import (
-    RunExistsError,
-    RunInfo,
-    RunWriter,
-    read_scalars,
-    replace_message,
-    run_info,
-)
+from sacflow.storage.run_reader import RunInfo, read_scalars, run_info
+from sacflow.storage.run_writer import RunExistsError, RunWriter, replace_message
 
 __all__ = ["RunSummary", "Simulation", "run", "run_case"]
 
@@ -114,7 +108,7 @@ def run_case(
     overwrite : bool
         Replace a run of *another* case stored under the same name. Without it such a run,
         finished or interrupted, is left as it is and
-        :class:`~sacflow.storage.run_file.RunExistsError`
+        :class:`~sacflow.storage.run_writer.RunExistsError`
         says how it differs.
 
     Raises
@@ -226,7 +220,7 @@ def _default_factory() -> Callable[[Case], Simulation]:
     """Return the solver's simulation factory (it reads a measured surface, a stored state)."""
     from sacflow.solver.simulation import Simulation as SolverSimulation  # the solver loads lazily
     from sacflow.storage.initial_state_file import read_initial_state
-    from sacflow.storage.run_file import load_surface
+    from sacflow.storage.surface_file import load_surface
 
     def factory(case: Case) -> Simulation:
         return SolverSimulation(case, surface=load_surface(case),
@@ -269,10 +263,10 @@ def run(case: Case | str | Path, out_dir: str | Path = "runs", *, progress: bool
     """Notebook entry point: run ``case`` (a Case or a config path) and open the result.
 
     Writes ``out_dir/<case.name>.nc`` like ``sacflow run`` (resuming a partial run) and returns
-    the :class:`xarray.Dataset` from :func:`sacflow.storage.run_file.open_run`.
+    the :class:`xarray.Dataset` from :func:`sacflow.storage.run_reader.open_run`.
     """
     from sacflow.storage.case_file import load_case
-    from sacflow.storage.run_file import open_run
+    from sacflow.storage.run_reader import open_run
 
     if not isinstance(case, Case):
         case = load_case(case)

@@ -42,7 +42,7 @@ from sacflow.config.schema import NAME_PATTERN, Case
 from sacflow.errors import ConfigError, ConvergenceError
 from sacflow.machine.malloc import MALLOC_ENV
 from sacflow.storage.case_file import load_case
-from sacflow.storage.run_file import completed_steps, is_complete, open_run
+from sacflow.storage.run_reader import completed_steps, is_complete, open_run
 
 ROOT = Path(__file__).resolve().parents[1]
 SMOKE = ROOT / "configs" / "campaign-smoke.toml"

@@ -15,7 +15,7 @@ from sacflow import runner
 from sacflow.cli import main
 from sacflow.config.schema import Case
 from sacflow.errors import ConvergenceError, SacflowError
-from sacflow.storage.run_file import completed_steps
+from sacflow.storage.run_reader import completed_steps
 
 HERTZ = Path(__file__).resolve().parents[1] / "configs" / "hertz-elastic.toml"
 SMALL = ["grid.nx=16", "grid.ny=16", "grid.nz=3", "load_path.0.increments=4"]

@@ -1,6 +1,6 @@
 """Comparison stages on synthetic runs with known answers, files, CLI, and one real Hertz run.
 
-Synthetic runs are written with the real store (:class:`sacflow.storage.run_file.RunWriter` from
+Synthetic runs are written with the real store (:class:`sacflow.storage.run_writer.RunWriter` from
 :class:`sacflow.solver.state.State` objects) so that the stages see the exact data model. Fields are
 chosen so that the answer is known in closed form: Hertz fields for the Hertz check, fields
 linear in x1 and x2 where a stage interpolates laterally (linear interpolation is then exact),
@@ -39,7 +39,8 @@ from sacflow.config.schema import Case, Dent, Dented
 from sacflow.mechanics.hertz import hertz_contact, hertz_pressure
 from sacflow.solver.state import COMPONENTS, GridCoords, State
 from sacflow.storage.case_file import load_case
-from sacflow.storage.run_file import RunWriter, open_run
+from sacflow.storage.run_reader import open_run
+from sacflow.storage.run_writer import RunWriter
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 HERTZ = CONFIGS / "hertz-elastic.toml"

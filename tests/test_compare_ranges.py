@@ -26,7 +26,8 @@ from sacflow.compare import (
 from sacflow.compare.core import cell_bounds
 from sacflow.solver.state import COMPONENTS, GridCoords, State
 from sacflow.storage.case_file import load_case
-from sacflow.storage.run_file import RunWriter, open_run
+from sacflow.storage.run_reader import open_run
+from sacflow.storage.run_writer import RunWriter
 
 HERTZ = Path(__file__).resolve().parents[1] / "configs" / "hertz-elastic.toml"
 #: The shallow box of the issue: 7 layers of 2 µm, 14 µm deep.

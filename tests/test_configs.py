@@ -19,7 +19,7 @@ import pytest
 
 from sacflow.runner import run_case
 from sacflow.storage.case_file import load_case
-from sacflow.storage.run_file import open_run
+from sacflow.storage.run_reader import open_run
 
 ROOT = Path(__file__).resolve().parent.parent
 CONFIGS = sorted(p for p in (ROOT / "configs").glob("*.toml") if "campaign" not in p.name)

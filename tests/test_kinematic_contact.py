@@ -20,7 +20,7 @@ from sacflow import runner
 from sacflow.errors import SacflowError
 from sacflow.solver.simulation import Simulation
 from sacflow.storage.case_file import load_case
-from sacflow.storage.run_file import run_info
+from sacflow.storage.run_reader import run_info
 
 ROOT = Path(__file__).resolve().parents[1]
 CASE = ROOT / "configs" / "rolling-cycles-shakedown.toml"

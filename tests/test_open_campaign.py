@@ -15,7 +15,7 @@ from sacflow.campaign import run_campaign
 from sacflow.campaign.opening import CampaignOpenError
 from sacflow.compare.campaign import RESULT_NAMES, run_results
 from sacflow.config.dotted import CF_NAME, cf_names
-from sacflow.storage.run_file import open_run
+from sacflow.storage.run_reader import open_run
 
 SMOKE = Path(__file__).resolve().parents[1] / "configs" / "campaign-smoke.toml"
 

@@ -17,7 +17,9 @@ from sacflow import runner
 from sacflow.cli import main
 from sacflow.errors import ConvergenceError
 from sacflow.solver.simulation import Simulation
-from sacflow.storage.run_file import RunExistsError, parts_dir, run_info
+from sacflow.storage.run_parts import parts_dir
+from sacflow.storage.run_reader import run_info
+from sacflow.storage.run_writer import RunExistsError
 
 ROOT = Path(__file__).resolve().parents[1]
 INDENT = ROOT / "configs" / "nanoindentation-650mN.toml"

@@ -170,7 +170,7 @@ def test_too_shallow_box_grows_and_says_so(tmp_path):
     """Plastic strain at the bottom layer: the run is repeated with a deeper box, with a note."""
     from sacflow.errors import BoxTooShallowError
     from sacflow.runner import run_case
-    from sacflow.storage.run_file import is_complete, open_run
+    from sacflow.storage.run_reader import is_complete, open_run
 
     sigma_y = 4.0e9
     load = load_for_ratio(2.2, sigma_y)
@@ -199,7 +199,7 @@ def test_measured_surface_comes_as_arrays(tmp_path):
     from sacflow.errors import SacflowError
     from sacflow.solver.state import MeasuredSurface
     from sacflow.storage.case_file import load_case
-    from sacflow.storage.run_file import load_surface
+    from sacflow.storage.surface_file import load_surface
 
     hertz = Path(__file__).resolve().parents[1] / "configs" / "hertz-elastic.toml"
     sets = ["grid.nx=16", "grid.ny=16", "grid.nz=3"]

@@ -26,17 +26,11 @@ from sacflow.solver.state import (
     State,
 )
 from sacflow.storage.case_file import load_case
-from sacflow.storage.run_file import (
-    VARIABLES,
-    RunExistsError,
-    RunWriter,
-    completed_steps,
-    is_complete,
-    open_run,
-    parts_dir,
-    read_measured_surface,
-    read_scalars,
-)
+from sacflow.storage.run_parts import parts_dir
+from sacflow.storage.run_reader import completed_steps, is_complete, open_run, read_scalars
+from sacflow.storage.run_variables import VARIABLES
+from sacflow.storage.run_writer import RunExistsError, RunWriter
+from sacflow.storage.surface_file import read_measured_surface
 
 CONFIG = Path(__file__).resolve().parents[1] / "configs" / "hertz-elastic.toml"
 TENSORS = {"plastic_strain", "residual_stress", "stress", "backstress"}
@@ -331,7 +325,7 @@ WRITER_SCRIPT = """
 import sys, time
 sys.path.insert(0, {tests!r})
 from test_store import make_coords, make_state, small_case
-from sacflow.storage.run_file import RunWriter
+from sacflow.storage.run_writer import RunWriter
 
 case = small_case()
 coords = make_coords(case)

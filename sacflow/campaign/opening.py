@@ -33,7 +33,7 @@ from sacflow.compare.campaign import (
     summary_dataset,
 )
 from sacflow.errors import SacflowError
-from sacflow.storage.run_file import open_run
+from sacflow.storage.run_reader import open_run
 
 __all__ = ["MANIFEST_SUFFIX", "CampaignOpenError", "CampaignResults", "open_campaign"]
 

@@ -119,9 +119,10 @@ def _skip_complete(
     """Mark the cases whose run file is complete as skipped; return the others to run.
 
     A case whose name holds a run of another case (finished or interrupted) is marked failed
-    with the message of :func:`sacflow.storage.run_file.replace_message`, unless ``overwrite``.
+    with the message of :func:`sacflow.storage.run_writer.replace_message`, unless ``overwrite``.
     """
-    from sacflow.storage.run_file import replace_message, run_info
+    from sacflow.storage.run_reader import run_info
+    from sacflow.storage.run_writer import replace_message
 
     pending = []
     for c in cases:

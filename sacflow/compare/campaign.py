@@ -24,7 +24,7 @@ import xarray as xr
 
 from sacflow.compare.core import RESULTS, CompareError, RunLike, build, case_name, load_run
 from sacflow.config.dotted import cf_names, flatten
-from sacflow.storage.run_file import open_run
+from sacflow.storage.run_reader import open_run
 
 __all__ = [
     "RESULT_NAMES",

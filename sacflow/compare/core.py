@@ -2,9 +2,8 @@
 
 Computation and metadata are separate layers (STYLE 8): the stages compute bare arrays and hand
 them to :func:`build`, which attaches ``units`` and ``long_name`` from the one table
-:data:`RESULTS` (falling back on the run-file table :data:`sacflow.storage.run_file.VARIABLES` for
-the
-quantities a result shares with a run, e.g. ``pressure``). Long names and units may hold
+:data:`RESULTS` (falling back on the run-file table :data:`sacflow.storage.run_variables.VARIABLES`
+for the quantities a result shares with a run, e.g. ``pressure``). Long names and units may hold
 ``{placeholders}`` filled from the ``context`` given to :func:`build` (a tensor component, the
 units of a compared variable).
 
@@ -32,7 +31,8 @@ from pydantic import ValidationError
 
 from sacflow.config.schema import Case
 from sacflow.errors import SacflowError
-from sacflow.storage.run_file import COORDINATES, VARIABLES, open_run
+from sacflow.storage.run_reader import open_run
+from sacflow.storage.run_variables import COORDINATES, VARIABLES
 
 __all__ = [
     "RESULTS",
@@ -51,7 +51,7 @@ __all__ = [
     "step_index",
 ]
 
-#: A run: an opened Dataset (from :func:`sacflow.storage.run_file.open_run`) or the path of a run
+#: A run: an opened Dataset (from :func:`sacflow.storage.run_reader.open_run`) or the path of a run
 #: file.
 RunLike = xr.Dataset | str | Path
 
@@ -266,7 +266,7 @@ def build(
 
 # --------------------------------------------------------------------------- runs
 def load_run(run: RunLike) -> xr.Dataset:
-    """Return the Dataset of a run (opened by :func:`sacflow.storage.run_file.open_run`)."""
+    """Return the Dataset of a run (opened by :func:`sacflow.storage.run_reader.open_run`)."""
     if isinstance(run, xr.Dataset):
         ds = run
     else:

@@ -31,7 +31,7 @@ import xarray as xr
 from sacflow.compare.core import CompareError, RunLike, build, case_name, case_of, require
 from sacflow.mechanics.fatigue import EnduranceLimits, fatigue_indices
 from sacflow.solver.state import COMPONENTS
-from sacflow.storage.run_file import open_run, run_info
+from sacflow.storage.run_reader import open_run, run_info
 
 __all__ = [
     "DEFAULT_LIMITS",

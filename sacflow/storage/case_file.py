@@ -165,7 +165,7 @@ def check_surface_file(case: Case, source: str) -> None:
     surface = case.surface
     if not isinstance(surface, Measured):
         return
-    from sacflow.storage.run_file import read_measured_surface  # xarray only when needed
+    from sacflow.storage.surface_file import read_measured_surface  # xarray only when needed
 
     try:
         read_measured_surface(surface.path, surface.format, surface.variable)

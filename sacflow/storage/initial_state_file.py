@@ -1,9 +1,10 @@
 """Reading the stored state a case starts from (``initial_state = { run, step, offset }``).
 
-The only module that reads a source run for a chained case; the solver receives the arrays as a
-:class:`~sacflow.mechanics.initial_state.StoredState` (:func:`read_initial_state`), as it receives
-a measured
-surface. Errors name ``initial_state`` and the fix.
+The module that reads a chained case's source run: its arrays, which the solver receives as a
+:class:`~sacflow.mechanics.initial_state.StoredState` (:func:`read_initial_state`) as it receives
+a measured surface, and the number of the chosen step (:func:`stored_step_number`, for the new
+run's attributes). Only the source's ``case_id`` attribute is read elsewhere, by
+:mod:`sacflow.config.schema` for the case identity. Errors name ``initial_state`` and the fix.
 """
 
 from __future__ import annotations
