@@ -5,7 +5,8 @@ A case's id covers the contents of the files it names, not their paths
 of a chained case by the ``case_id`` that run stores. The configuration layer reads no file;
 this module reads them, once per case: :func:`identified` where a case enters (the case file
 readers and campaign expansion), and :func:`file_fingerprints`, installed as the configuration
-layer's reader when this module is imported, for a case built any other way. A file that cannot
+layer's reader when this module is imported, for a case built any other way. It imports no
+model (nor pydantic), so that importing it costs nothing. A file that cannot
 be read leaves its path in the identity.
 """
 
@@ -15,7 +16,6 @@ import hashlib
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from sacflow.config.bodies import Measured
 from sacflow.config.identity import (
     FileFingerprints,
     install_file_fingerprint_reader,
@@ -55,7 +55,7 @@ def file_fingerprints(case: Case) -> FileFingerprints:
     """Read the fingerprints of the files ``case`` names (its measured surface, source run)."""
     surface = case.surface
     return FileFingerprints(
-        surface_digest=file_digest(surface.path) if isinstance(surface, Measured) else None,
+        surface_digest=file_digest(surface.path) if surface.kind == "measured" else None,
         source_case_id=None if case.initial_state is None else stored_case_id(
             case.initial_state.run),
     )
