@@ -6,8 +6,8 @@ of a chained case by the ``case_id`` that run stores. The configuration layer re
 this module reads them, once per case: :func:`identified` where a case enters (the case file
 readers and campaign expansion), and :func:`file_fingerprints`, installed as the configuration
 layer's reader when this module is imported, for a case built any other way. It imports no
-model (nor pydantic), so that importing it costs nothing. A file that cannot
-be read leaves its path in the identity.
+model (nor pydantic), so that importing it costs nothing. A file that cannot be read leaves its
+path in the identity.
 """
 
 from __future__ import annotations
