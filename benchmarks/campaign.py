@@ -49,8 +49,9 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def build_campaign(cases: int, nx: int, nz: int, increments: int):
     """The shipped Hertz case at nx x nx x nz cells, ``cases`` loads from 0.2 N to 0.65 N."""
+    from sacflow.config.parsing import apply_overrides
     from sacflow.config.schema import Campaign
-    from sacflow.storage.case_file import apply_overrides, read_file
+    from sacflow.storage.case_file import read_file
 
     base = apply_overrides(
         read_file(ROOT / "configs" / "hertz-elastic.toml"),

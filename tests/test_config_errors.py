@@ -10,9 +10,10 @@ from pathlib import Path
 import pytest
 
 from sacflow.cli import main
+from sacflow.config.parsing import apply_overrides
 from sacflow.config.schema import Measured
 from sacflow.errors import ConfigError
-from sacflow.storage.case_file import apply_overrides, load_case
+from sacflow.storage.case_file import load_case
 
 HERTZ = Path(__file__).resolve().parents[1] / "configs" / "hertz-elastic.toml"
 TEXT = HERTZ.read_text()

@@ -16,10 +16,12 @@ from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 from pydantic import ValidationError
 
+from sacflow.config.identity import install_file_fingerprint_reader
 from sacflow.config.schema import Case, Counterbody, Roll, case_json_schema
 from sacflow.errors import ConfigError
 from sacflow.mechanics.hertz import composite_modulus, effective_radius, hertz_contact
 from sacflow.storage.case_file import case_from_dict, load_case, read_file
+from sacflow.storage.fingerprints import file_fingerprints
 
 # Every case config shipped in configs/ (campaign files, named *campaign*, are not cases).
 CONFIGS = sorted(
@@ -305,3 +307,104 @@ def test_rolling_direction_reads_back_as_itself(direction):
     again = Roll.model_validate_json(roll.model_dump_json())
     assert again.direction == roll.direction
     assert abs(math.hypot(*roll.direction) - 1.0) < 1e-15
+
+
+# --------------------------------------------------------------------------- id computed once
+@pytest.fixture
+def counting_reader():
+    """Count the reads of file fingerprints (the storage reader, wrapped; restored after)."""
+    calls = []
+
+    def reader(case):
+        calls.append(case.name)
+        return file_fingerprints(case)
+
+    install_file_fingerprint_reader(reader)
+    yield calls
+    install_file_fingerprint_reader(file_fingerprints)
+
+
+def test_files_are_read_once_for_the_id_not_by_validation(surface_file, counting_reader):
+    case = Case(**measured_tabular(surface_file))  # as in a notebook: no file read here
+    assert counting_reader == []
+    first = case.case_id
+    assert case.case_id == first and case.identity()["surface"]["path"].startswith("sha256:")
+    assert counting_reader == ["measured"], "read once, at the first use of the id"
+    assert case_from_dict(measured_tabular(surface_file)).case_id == first
+    assert counting_reader == ["measured"], "case_from_dict read the files itself, as it entered"
+
+
+def test_the_id_stays_what_it_was_when_the_case_entered(surface_file, tmp_path):
+    edited = tmp_path / "surface.txt"
+    edited.write_bytes(surface_file.read_bytes())
+    case = case_from_dict(measured_tabular(edited))
+    before = case.case_id
+    edited.write_text(surface_file.read_text().replace(" 0\n", " 1e-9\n", 1))
+    assert case.case_id == before
+    assert case_from_dict(measured_tabular(edited)).case_id != before
+
+
+def test_an_updated_copy_gets_its_own_id(surface_file, tmp_path, counting_reader):
+    case = case_from_dict(measured_tabular(surface_file))
+    assert case.case_id  # known before the copy: the copy must not keep it
+    finer = case.model_copy(update={"grid": case.grid.model_copy(update={"nx": 32})})
+    assert finer.case_id != case.case_id
+    assert counting_reader == [], "the copy kept the fingerprints"
+    assert finer.case_id == Case.model_validate_json(finer.canonical_json()).case_id
+    assert counting_reader == ["measured"], "a case rebuilt from JSON reads them again"
+    assert case.model_copy().case_id == case.case_id
+    other = tmp_path / "other.txt"
+    other.write_text(surface_file.read_text().replace(" 0\n", " 2e-9\n", 1))
+    moved = case.model_copy(update={"surface": case.surface.model_copy(update={"path": other})})
+    assert moved.case_id == case_from_dict(measured_tabular(other)).case_id != case.case_id
+
+
+def test_a_known_id_changes_neither_equality_nor_hash_nor_pickling(surface_file):
+    import pickle
+
+    case = case_from_dict(measured_tabular(surface_file))
+    fresh = Case.model_validate_json(case.canonical_json())
+    assert case.case_id and case == fresh and hash(case) == hash(fresh)
+    assert case.model_dump() == fresh.model_dump()
+    again = pickle.loads(pickle.dumps(case))
+    assert again == case and again.case_id == case.case_id
+
+
+def test_the_config_layer_reads_no_file_and_imports_no_storage():
+    import ast
+
+    config = Path(__file__).resolve().parents[1] / "sacflow" / "config"
+    for path in config.glob("*.py"):
+        tree = ast.parse(path.read_text())
+        for node in ast.walk(tree):
+            if isinstance(node, ast.ImportFrom):
+                names = [node.module or ""]
+            elif isinstance(node, ast.Import):
+                names = [alias.name for alias in node.names]
+            else:
+                continue
+            assert not any(n.startswith(("sacflow.storage", "netCDF4", "xarray")) for n in names), \
+                path.name
+        called = {n.func.id for n in ast.walk(tree)
+                  if isinstance(n, ast.Call) and isinstance(n.func, ast.Name)}
+        assert "open" not in called, path.name
+
+
+def test_without_storage_a_case_naming_files_says_how_to_get_its_id(surface_file):
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, json\n"
+        "from sacflow.config.schema import Case\n"
+        "assert not any(m.startswith('sacflow.storage') for m in sys.modules)\n"
+        f"data = json.loads({json.dumps(json.dumps(measured_tabular(surface_file)))})\n"
+        "print(Case(**{**data, 'surface': {'kind': 'smooth'}}).case_id)\n"
+        "try:\n"
+        "    Case(**data).case_id\n"
+        "except RuntimeError as exc:\n"
+        "    print(exc)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout.splitlines()
+    assert len(out[0]) == 12 and "import sacflow.storage" in out[1]

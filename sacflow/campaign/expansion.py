@@ -23,6 +23,7 @@ from typing import Any, get_origin
 from pydantic import ValidationError
 
 from sacflow.config.dotted import list_index, set_dotted, valid_indices
+from sacflow.config.parsing import apply_overrides
 from sacflow.config.problems import (
     drop_consequential,
     is_model,
@@ -36,13 +37,8 @@ from sacflow.config.problems import (
 )
 from sacflow.config.schema import FIELD_ERROR, Campaign, Case, Sweep
 from sacflow.errors import ConfigError
-from sacflow.storage.case_file import (
-    apply_overrides,
-    check_initial_state_file,
-    check_surface_file,
-    read_file,
-    resolve_surface_path,
-)
+from sacflow.storage.case_file import check_case_files, read_file, resolve_surface_path
+from sacflow.storage.fingerprints import identified
 
 __all__ = [
     "MAX_NAME",
@@ -210,7 +206,7 @@ def campaign_rows(campaign: Campaign) -> list[dict[str, Any]]:
 def _build_case(
     base: Mapping[str, Any], row: Mapping[str, Any], name: str, source: str
 ) -> Case | list[str]:
-    """Return the validated case of one row, or its problems."""
+    """Return the validated case of one row, its files read (its id fixed), or its problems."""
     data = copy.deepcopy(dict(base))
     for key, value in row.items():
         try:
@@ -223,11 +219,10 @@ def _build_case(
     except ValidationError as exc:
         return [problem_line(e) for e in drop_consequential(exc.errors(include_url=False))]
     try:
-        check_surface_file(case, source)
-        check_initial_state_file(case, source)
+        check_case_files(case, source)
     except ConfigError as exc:
         return [line.strip() for line in str(exc).splitlines()[1:]]
-    return case
+    return identified(case)
 
 
 def _case_problems(failures: list[tuple[int, dict[str, Any], list[str]]], total: int) -> list[str]:

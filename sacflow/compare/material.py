@@ -37,8 +37,9 @@ def material_point_stage(case_file: Path, amplitude: float | None = None,
     """
     from pydantic import ValidationError
 
+    from sacflow.config.parsing import format_validation_error
     from sacflow.config.schema import Body
-    from sacflow.storage.case_file import format_validation_error, read_file
+    from sacflow.storage.case_file import read_file
 
     if Path(case_file).suffix != ".toml":
         raise CompareError(f"material-point takes a case file (.toml), got {case_file}")

@@ -1,11 +1,10 @@
 """Dotted paths into nested case data (``"load_path.0.to"``): parsing, setting, flattening.
 
 One rule for every dotted path sacflow reads or writes: ``--set`` overrides
-(:func:`sacflow.storage.case_file.apply_overrides`), campaign sweep keys (:mod:`sacflow.campaign`),
-the run
-identity messages (:func:`sacflow.config.schema.identity_differences`) and the campaign summary
-(:mod:`sacflow.compare.campaign`). Parts are separated by dots; a part of ASCII digits only
-indexes a list from 0.
+(:func:`sacflow.config.parsing.apply_overrides`), campaign sweep keys (:mod:`sacflow.campaign`),
+the run identity messages (:func:`sacflow.config.identity.identity_differences`) and the
+campaign summary (:mod:`sacflow.compare.campaign`). Parts are separated by dots; a part of
+ASCII digits only indexes a list from 0.
 """
 
 from __future__ import annotations

@@ -20,7 +20,8 @@ import annotated_types
 from pydantic import BaseModel
 from pydantic.fields import FieldInfo
 
-from sacflow.config.schema import FIELD_ERROR, Case
+from sacflow.config.base import FIELD_ERROR
+from sacflow.config.case import Case
 
 __all__ = [
     "MAX_PROBLEMS",

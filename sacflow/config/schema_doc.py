@@ -4,9 +4,9 @@
 campaign file), one row per key with its type, default, constraints and description, and one
 section per variant of a discriminated union (``body.hardening`` by ``law``, ``surface`` and
 ``load_path`` by ``kind``). Everything comes from the JSON schema pydantic makes of the models
-of :mod:`sacflow.config.schema` (:func:`sacflow.config.schema.case_json_schema`), so the page
-follows the
-models; ``tests/test_schema_doc.py`` fails when the committed page is out of date.
+of :mod:`sacflow.config.schema` (:func:`~sacflow.config.schema.case_json_schema`,
+:func:`~sacflow.config.schema.campaign_json_schema`), so the page follows the models;
+``tests/test_schema_doc.py`` fails when the committed page is out of date.
 """
 
 from __future__ import annotations
@@ -47,11 +47,11 @@ choice. Any key can be overridden on the command line with `--set dotted.key=val
 
 def case_format_markdown() -> str:
     """Return the Markdown reference of the case and campaign formats (``docs/case-format.md``)."""
-    from sacflow.config.schema import Campaign, _finite_json, case_json_schema
+    from sacflow.config.schema import campaign_json_schema, case_json_schema
 
     lines = [_HEADER]
     lines += _document(case_json_schema(), "Case file")
-    lines += _document(_finite_json(Campaign.model_json_schema()), "Campaign file")
+    lines += _document(campaign_json_schema(), "Campaign file")
     return "\n".join(lines).rstrip() + "\n"
 
 

@@ -14,3 +14,7 @@ comparison stage's result) and :mod:`sacflow.studies.dent_study` (reads run file
 results, writes the study's summary). The other comparison stages and
 :mod:`sacflow.campaign.opening` open runs through ``open_run``. See ``docs/architecture.md``.
 """
+
+# Installs the reader of the files a case's id covers (sacflow.config.identity): any use of
+# the storage layer makes ``Case.case_id`` work for cases built without it.
+from sacflow.storage import fingerprints as fingerprints

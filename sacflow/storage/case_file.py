@@ -1,39 +1,40 @@
-"""Read case files, apply command-line overrides, and turn every mistake into a clear message.
+"""Read case files and the files a case names; turn every mistake into a clear message.
 
 Bad input is rejected where it enters (STYLE 12): every failure here is a
 :class:`~sacflow.errors.ConfigError` whose text fits on one screen: the file name, then one line
 per problem with the dotted field path (as written in the file, list indices as numbers, e.g.
-``load_path.0.to``), what is wrong, what the field means, and the value found. The lines are
-built by :mod:`sacflow.config.problems`; dotted ``--set`` paths are followed by
-:mod:`sacflow.config.dotted`.
+``load_path.0.to``), what is wrong, what the field means, and the value found. This module reads
+(the case file, its measured surface, the run a chained case starts from, relative paths
+resolved against the case file's folder); overrides, validation and the messages are the
+configuration layer's (:mod:`sacflow.config.parsing`). A case leaves here with the fingerprints
+of the files it names, from which its ``case_id`` follows (:mod:`sacflow.storage.fingerprints`).
 """
 
 from __future__ import annotations
 
-import copy
 import json
 import re
 import tomllib
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from pydantic import ValidationError
-
-from sacflow.config.dotted import set_dotted
-from sacflow.config.problems import drop_consequential, problem_line, report
+from sacflow.config.parsing import apply_overrides, validate_case
+from sacflow.config.problems import report
 from sacflow.config.schema import Case, Measured
 from sacflow.errors import ConfigError
+from sacflow.storage.fingerprints import identified
 
 __all__ = [
-    "apply_overrides",
     "case_from_dict",
+    "check_case_files",
+    "check_initial_state_file",
     "check_surface_file",
-    "format_validation_error",
     "load_case",
     "read_file",
     "resolve_surface_path",
 ]
+
 
 # --------------------------------------------------------------------------- public API
 def load_case(path: str | Path, overrides: Sequence[str] = ()) -> Case:
@@ -45,7 +46,8 @@ def load_case(path: str | Path, overrides: Sequence[str] = ()) -> Case:
         Case file. A relative ``surface.path`` or ``initial_state.run`` is resolved against
         its folder.
     overrides : sequence of str
-        ``dotted.key=value`` items applied in order (see :func:`apply_overrides`).
+        ``dotted.key=value`` items applied in order
+        (:func:`sacflow.config.parsing.apply_overrides`).
 
     Raises
     ------
@@ -86,45 +88,32 @@ def read_file(path: Path) -> dict[str, Any]:
     return data
 
 
-def apply_overrides(data: Mapping[str, Any], overrides: Iterable[str]) -> dict[str, Any]:
-    """Return a copy of ``data`` with ``dotted.key=value`` overrides applied.
-
-    The value is parsed as a TOML literal (``64``, ``0.19``, ``"linear"``, ``[1e-5, 1e-5]``,
-    ``inf``); anything else is kept as a bare string. Whole-number keys index lists from 0
-    (``load_path.0.to=0.19``; the index just past the end appends); negative or non-integer
-    indices are rejected. Missing intermediate tables are created.
-    """
-    result = copy.deepcopy(dict(data))
-    for item in overrides:
-        key, sep, raw = item.partition("=")
-        keys = key.strip().split(".")
-        if not sep or not all(k.strip() for k in keys):
-            raise ConfigError(f"--set {item!r}: expected dotted.key=value, e.g. grid.nx=64")
-        set_dotted(result, [k.strip() for k in keys], _parse_literal(raw.strip()), item)
-    return result
-
-
 def case_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> Case:
-    """Validate ``data`` into a :class:`Case`; a measured surface file must be readable.
+    """Validate ``data`` into a :class:`Case` whose files (surface, source run) can be read.
+
+    Returns the case with the fingerprints of those files (its ``case_id`` follows from them).
 
     Raises
     ------
     ConfigError
-        With one line per problem (see :func:`format_validation_error`).
+        With one line per problem (:func:`sacflow.config.parsing.validate_case`), or naming
+        the file that cannot be read.
     """
-    try:
-        case = Case.model_validate(data)
-    except ValidationError as exc:
-        raise ConfigError(format_validation_error(exc, source)) from None
+    case = validate_case(data, source)
+    check_case_files(case, source)
+    return identified(case)
+
+
+def check_case_files(case: Case, source: str) -> None:
+    """Check that the files ``case`` names can be read: its measured surface, its source run.
+
+    Raises
+    ------
+    ConfigError
+        ``source: invalid case (1 problem)`` naming the file and the reason.
+    """
     check_surface_file(case, source)
     check_initial_state_file(case, source)
-    return case
-
-
-def format_validation_error(error: ValidationError, source: str) -> str:
-    """Return a short message: ``source``, then one line per problem naming the field."""
-    errors = drop_consequential(error.errors(include_url=False))
-    return report(source, [problem_line(err) for err in errors])
 
 
 # --------------------------------------------------------------------------- file helpers
@@ -191,11 +180,3 @@ def check_initial_state_file(case: Case, source: str) -> None:
         check_initial_state(case)
     except InitialStateError as exc:
         raise ConfigError(report(source, [str(exc)])) from None
-
-
-# --------------------------------------------------------------------------- overrides
-def _parse_literal(raw: str) -> Any:
-    try:
-        return tomllib.loads(f"value = {raw}")["value"]
-    except tomllib.TOMLDecodeError:
-        return raw
