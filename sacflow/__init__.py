@@ -11,6 +11,10 @@ from __future__ import annotations
 
 from sacflow.lazy_exports import lazy_exports
 
+# The reader of the files a case's id covers (a measured surface, a chained case's source run):
+# installed with the package, so that a case built in a notebook with ``Case(**data)`` has its id.
+from sacflow.storage import fingerprints as _fingerprints  # noqa: F401  (installs the reader)
+
 __all__ = [
     "ConfigError",
     "load_case",

@@ -390,21 +390,19 @@ def test_the_config_layer_reads_no_file_and_imports_no_storage():
         assert "open" not in called, path.name
 
 
-def test_without_storage_a_case_naming_files_says_how_to_get_its_id(surface_file):
+def test_a_case_built_directly_reads_its_files_once_for_its_id(surface_file):
     import subprocess
     import sys
 
     code = (
         "import sys, json\n"
         "from sacflow.config.schema import Case\n"
-        "assert not any(m.startswith('sacflow.storage') for m in sys.modules)\n"
+        "from sacflow.storage.case_file import case_from_dict\n"
         f"data = json.loads({json.dumps(json.dumps(measured_tabular(surface_file)))})\n"
-        "print(Case(**{**data, 'surface': {'kind': 'smooth'}}).case_id)\n"
-        "try:\n"
-        "    Case(**data).case_id\n"
-        "except RuntimeError as exc:\n"
-        "    print(exc)\n"
+        "direct = Case(**data)\n"
+        "print(direct.case_id == case_from_dict(data).case_id, direct.file_fingerprints)\n"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout.splitlines()
-    assert len(out[0]) == 12 and "import sacflow.storage" in out[1]
+    assert out[0].startswith("True"), out
+    assert "surface_digest=None" not in out[0], "the surface file was read for the id"

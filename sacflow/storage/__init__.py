@@ -6,9 +6,9 @@ storage modules :mod:`~sacflow.storage.run_layout` (creates run files and parts)
 :mod:`~sacflow.storage.run_restart` (the solver state in a part),
 :mod:`~sacflow.storage.run_reader` (``open_run``, ``run_info``, ``read_scalars``),
 :mod:`~sacflow.storage.surface_file` (a measured surface in netCDF) and
-:mod:`~sacflow.storage.initial_state_file` (the source run of a chained case); and, outside
-this layer, by :mod:`sacflow.config.schema` (the ``case_id`` attribute of a chained case's
-source run, for the case identity), :mod:`sacflow.compare.reference` (a reference file that is
+:mod:`~sacflow.storage.initial_state_file` (the source run of a chained case),
+:mod:`~sacflow.storage.fingerprints` (the ``case_id`` a source run stores); and, outside
+this layer, by :mod:`sacflow.compare.reference` (a reference file that is
 not a run; runs are opened through ``open_run``), :mod:`sacflow.compare.output` (writes a
 comparison stage's result) and :mod:`sacflow.studies.dent_study` (reads run files and fatigue
 results, writes the study's summary). The other comparison stages and
