@@ -35,14 +35,14 @@ def run_case(out: str) -> dict:
 def stage(out: str, max_memory: int | None) -> dict:
     import xarray as xr
 
-    from sacflow.compare.fatigue import DEFAULT_MAX_MEMORY, fatigue_stage, history_blocks
+    from sacflow.compare.fatigue_index import DEFAULT_MAX_MEMORY, fatigue, history_blocks
 
     path = Path(out) / "rolling-smooth.nc"
     budget = DEFAULT_MAX_MEMORY if max_memory is None else max_memory
     with xr.open_dataset(path) as ds:
         shape = tuple(ds.sizes[d] for d in ("step", "x1", "x2", "x3"))
     t0 = time.perf_counter()
-    result = fatigue_stage(path, max_memory=budget)
+    result = fatigue(path, max_memory=budget)
     wall = time.perf_counter() - t0
     return {
         "what": "fatigue stage",

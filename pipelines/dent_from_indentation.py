@@ -28,7 +28,7 @@ import numpy as np
 import xarray as xr
 from matplotlib.figure import Figure
 
-from sacflow.compare.fatigue import fatigue_stage
+from sacflow.compare.fatigue_index import fatigue
 from sacflow.compare.output import write
 from sacflow.config.schema import Case
 from sacflow.errors import SacflowError
@@ -78,7 +78,7 @@ def compare_histories(out: Path, overrides: list[str], press_overrides: list[str
     result.to_netcdf(path)
     plot(result).savefig(path.with_suffix(".png"), dpi=120)
     for run in (chained, geometric):
-        write(fatigue_stage(run), out / "fatigue", f"{run.stem}-fatigue")
+        write(fatigue(run), out / "fatigue", f"{run.stem}-fatigue")
     return {k: float(v) for k, v in result.data_vars.items() if v.ndim == 0}
 
 
@@ -125,10 +125,10 @@ def comparison(chained: Path, geometric: Path) -> xr.Dataset:
             data[f"residual_stress_11_min_{label}"] = float(s11.values[k])
             data[f"residual_stress_11_min_x1_{label}"] = float(s11["x1"].values[k])
             data[f"max_plastic_strain_{label}"] = float(last["equivalent_plastic_strain"].max())
-        fatigue = fatigue_stage(path)
-        data[f"dang_van_max_{label}"] = float(fatigue["dang_van_track_max"])
-        data[f"dang_van_max_x1_{label}"] = float(fatigue["dang_van_track_max_x1"])
-        data[f"dang_van_max_depth_{label}"] = float(fatigue["dang_van_track_max_depth"])
+        index = fatigue(path)
+        data[f"dang_van_max_{label}"] = float(index["dang_van_track_max"])
+        data[f"dang_van_max_x1_{label}"] = float(index["dang_van_track_max_x1"])
+        data[f"dang_van_max_depth_{label}"] = float(index["dang_van_track_max_depth"])
     data["dang_van_ratio"] = data["dang_van_max_chained"] / data["dang_van_max_geometric"]
     ds = xr.Dataset(data, coords=coords)
     ds.attrs.update(Conventions="CF-1.10", profile_depth=PROFILE_DEPTH, chained=str(chained),

@@ -93,8 +93,8 @@ def main() -> None:
     from sacflow.compare import write
 
     stages = {
-        "indentation": compare.indentation_profiles,
-        "track": compare.track_profile,
+        "indentation": compare.indentation,
+        "track": compare.track,
         "residual-map": compare.residual_map,
         "elastic-vs-plastic": compare.elastic_vs_plastic,
         "vertical-vs-rolling": compare.vertical_vs_rolling,

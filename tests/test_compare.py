@@ -25,11 +25,11 @@ from sacflow.compare import (
     case_vs_reference,
     elastic_vs_plastic,
     hertz_check,
-    indentation_profiles,
+    indentation,
     load_approach,
     residual_map,
     summary,
-    track_profile,
+    track,
     vertical_vs_rolling,
     write,
 )
@@ -211,7 +211,7 @@ def indentation_run(path: Path, case: Case) -> tuple[xr.Dataset, GridCoords]:
 
 def test_indentation_profiles_known_fields(tmp_path, nano_case):
     ds, coords = indentation_run(tmp_path / "nano.nc", nano_case)
-    result = indentation_profiles(ds, offsets=(0.0, 2e-6))
+    result = indentation(ds, offsets=(0.0, 2e-6))
     x3 = coords.x3
     assert list(result.when.values) == ["max_load", "last"]
     assert list(result.step.values) == [1, 3]
@@ -370,7 +370,7 @@ def test_asymmetry_of_a_shifted_centre():
     assert asymmetry(x, -np.exp(-(x**2)), 0.3) > 0.1
 
 
-# --------------------------------------------------------------------------- 6. track_profile
+# --------------------------------------------------------------------------- 6. track
 def track_run(path: Path, case: Case, profile) -> xr.Dataset:
     """Load at x1 = 0, roll to 100 µm in 10 steps, unload; residual displacement profile(x1)."""
     coords = make_coords(281, 3, 0.5e-6, [1e-6], x1_0=50e-6)
@@ -388,7 +388,7 @@ def test_track_profile_steady_state_distance(tmp_path, hertz_case):
     def ramp(x):
         return np.where(x > 100e-6, 0.0, plateau * np.clip(x / s0, 0.0, 1.0))
 
-    result = track_profile(track_run(tmp_path / "roll.nc", hertz_case, ramp))
+    result = track(track_run(tmp_path / "roll.nc", hertz_case, ramp))
     assert_allclose(float(result.plateau), plateau, rtol=1e-12)
     # first cell centre at or beyond 0.98 s0 (cells every 0.5 µm on integer half-microns)
     assert_allclose(float(result.steady_state_distance), 20e-6, rtol=1e-9)
@@ -399,7 +399,7 @@ def test_track_profile_steady_state_distance(tmp_path, hertz_case):
     assert_allclose(result.track_distance, result.x1, atol=1e-18)
     assert_written(result, tmp_path, "track")
 
-    slope = track_profile(
+    slope = track(
         track_run(tmp_path / "slope.nc", hertz_case, lambda x: plateau * np.clip(x / 100e-6, 0, 1))
     )
     assert np.isnan(float(slope.steady_state_distance)), "never steady"
@@ -408,7 +408,7 @@ def test_track_profile_steady_state_distance(tmp_path, hertz_case):
 def test_track_profile_needs_a_rolled_track(tmp_path, hertz_case):
     ds, _ = indentation_run(tmp_path / "nano.nc", hertz_case)
     with pytest.raises(CompareError, match="no rolled track"):
-        track_profile(ds)
+        track(ds)
 
 
 # --------------------------------------------------------------------------- 7. residual_map

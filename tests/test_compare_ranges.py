@@ -20,7 +20,7 @@ from sacflow.compare import (
     CompareError,
     case_vs_reference,
     residual_map,
-    track_profile,
+    track,
     vertical_vs_rolling,
 )
 from sacflow.compare.core import cell_bounds
@@ -120,7 +120,7 @@ def test_vertical_vs_rolling_positions_outside_a_run_are_errors(tmp_path, case):
 def test_track_x2_outside_the_grid_is_an_error(tmp_path, case):
     ds = shallow_run(tmp_path / "track.nc", case)
     with pytest.raises(CompareError, match=r"--x2 -3e-05 m .*\[-5\.5e-06, 5\.5e-06\]"):
-        track_profile(ds, x2=-30e-6, end_margin=0.0)
+        track(ds, x2=-30e-6, end_margin=0.0)
 
 
 def test_case_vs_reference_selection_outside_the_grid_is_an_error(tmp_path, case):

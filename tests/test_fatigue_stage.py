@@ -18,7 +18,7 @@ import pytest
 import xarray as xr
 
 from sacflow.compare.core import CompareError
-from sacflow.compare.fatigue import DEFAULT_LIMITS, fatigue_stage, history_blocks
+from sacflow.compare.fatigue_index import DEFAULT_LIMITS, fatigue, history_blocks
 from sacflow.mechanics.fatigue import fatigue_indices
 from sacflow.mechanics.hertz import composite_modulus, hertz_contact, hertz_subsurface_stress
 from sacflow.runner import run_case
@@ -57,7 +57,7 @@ def rolled(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def result(rolled):
-    return fatigue_stage(rolled)
+    return fatigue(rolled)
 
 
 def _middle(ds: xr.Dataset) -> np.ndarray:
@@ -125,7 +125,7 @@ def test_blocks_give_the_same_fields(rolled, result):
         steps, n1, n2, n3 = (ds.sizes[d] for d in ("step", "x1", "x2", "x3"))
     one_row = steps * n2 * n3 * 48
     assert len(history_blocks((steps, n1, n2, n3), 3 * one_row)) == -(-n1 // 3)
-    small = fatigue_stage(rolled, max_memory=3 * one_row)
+    small = fatigue(rolled, max_memory=3 * one_row)
     for name in ("dang_van", "crossland", "sqrt_j2_amplitude", "hydrostatic_max"):
         np.testing.assert_array_equal(small[name].values, result[name].values)
 
@@ -150,15 +150,15 @@ def test_result_names_units_and_maximum(result):
 
 def test_given_limits_scale_the_index(rolled, result):
     # Same ratio t/f, both limits doubled: a is unchanged, b doubles, the index halves.
-    doubled = fatigue_stage(rolled, bending_limit=2 * DEFAULT_LIMITS.bending,
+    doubled = fatigue(rolled, bending_limit=2 * DEFAULT_LIMITS.bending,
                             torsion_limit=2 * DEFAULT_LIMITS.torsion)
     np.testing.assert_allclose(doubled["dang_van"].values, 0.5 * result["dang_van"].values,
                                rtol=1e-12)
     assert doubled.attrs["limits_source"] == "given"
     with pytest.raises(CompareError, match="both"):
-        fatigue_stage(rolled, bending_limit=7e8)
+        fatigue(rolled, bending_limit=7e8)
     with pytest.raises(CompareError, match="torsion"):
-        fatigue_stage(rolled, bending_limit=7e8, torsion_limit=-1.0)
+        fatigue(rolled, bending_limit=7e8, torsion_limit=-1.0)
 
 
 @pytest.mark.parametrize(
@@ -174,9 +174,9 @@ def test_runs_without_the_history_are_refused(tmp_path, output, message):
     case["load_path"][1]["steps"] = 6
     run_case(case_from_dict(case), tmp_path, progress=False)
     with pytest.raises(CompareError, match=message):
-        fatigue_stage(tmp_path / "sparse.nc")
+        fatigue(tmp_path / "sparse.nc")
     with pytest.raises(CompareError, match="no such run"):
-        fatigue_stage(tmp_path / "absent.nc")
+        fatigue(tmp_path / "absent.nc")
 
 
 def test_stress_at_every_step_suffices(tmp_path, result):
@@ -184,7 +184,7 @@ def test_stress_at_every_step_suffices(tmp_path, result):
     index equals that of the run storing every volume field at every step."""
     case = _case("sparse", volume_every=2, every_step=["stress"])
     run_case(case_from_dict(case), tmp_path, progress=False)
-    sparse = fatigue_stage(tmp_path / "sparse.nc")
+    sparse = fatigue(tmp_path / "sparse.nc")
     np.testing.assert_allclose(sparse["dang_van"].values, result["dang_van"].values,
                                rtol=1e-9, atol=1e-12)
 

@@ -214,7 +214,7 @@ def test_melan_stage_on_a_repeated_rolling_run(tmp_path, capsys):
     import xarray as xr
 
     from sacflow.cli import main
-    from sacflow.compare.melan import melan_check
+    from sacflow.compare.melan_bound import melan
     from sacflow.runner import run_case
     from sacflow.solver.layout import plan_steps
     from sacflow.storage.case_file import load_case
@@ -226,7 +226,7 @@ def test_melan_stage_on_a_repeated_rolling_run(tmp_path, capsys):
     plan = plan_steps(case.load_path)
     last_pass = [i for i, s in enumerate(plan) if s.pass_index == 1
                  and case.load_path[s.segment].kind == "roll" and s.load == case.max_load]
-    result = melan_check(path)
+    result = melan(path)
     assert int(result["step"]) == last_pass[len(last_pass) // 2]
     factor = float(result["load_factor"])
     assert float(result["first_yield_factor"]) < factor
@@ -243,7 +243,7 @@ def test_melan_stage_on_a_repeated_rolling_run(tmp_path, capsys):
 
 def test_melan_stage_refuses_what_it_does_not_cover():
     from sacflow.compare.core import CompareError
-    from sacflow.compare.melan import check_melan_case
+    from sacflow.compare.melan_bound import check_melan_case
     from sacflow.storage.case_file import load_case
 
     with pytest.raises(CompareError, match="perfectly plastic"):

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from sacflow.compare.passes import classify, pass_report
+from sacflow.compare.pass_history import classify, passes
 from sacflow.runner import run_case
 from sacflow.solver.layout import plan_steps
 from sacflow.storage.case_file import load_case
@@ -101,7 +101,7 @@ def test_below_the_shakedown_limit_the_flow_dies_out(tmp_path):
     path = run_case(case, tmp_path, progress=False).path
     with xr.open_dataset(path) as ds:
         assert list(np.unique(ds["pass"].values)) == [0, 1, 2, 3, 4]
-    report = pass_report(path)
+    report = passes(path)
     flow = report["pass_plastic_increment_integral"].values
     assert flow[0] > 0 and flow[4] < 1e-2 * flow[0]
     assert np.all(np.diff(flow) < 0)
@@ -117,7 +117,7 @@ def test_above_the_shakedown_limit_the_flow_does_not(tmp_path):
     """
     case = load_case(ROOT / "configs" / "rolling-cycles-ratcheting.toml",
                      ["grid.nx=16", "grid.ny=16", "grid.nz=8", "load_path.1.steps=16"])
-    report = pass_report(run_case(case, tmp_path, progress=False).path)
+    report = passes(run_case(case, tmp_path, progress=False).path)
     flow = report["pass_plastic_increment_integral"].values
     assert flow[-1] > 0.8 * flow[-2] and flow[-1] > 1e-2 * flow[0]
     assert report.attrs["verdict"] in ("ratcheting", "plastic shakedown")

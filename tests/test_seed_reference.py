@@ -48,7 +48,7 @@ def run(name: str, out: Path) -> Path:
 
 
 def test_650mN_print_depth_is_80_nm(out):
-    result = compare.indentation_profiles(run("nanoindentation-650mN", out))
+    result = compare.indentation(run("nanoindentation-650mN", out))
     depth, seed = float(result["print_depth"]), seed_value("print_depth_650mN")
     assert abs(depth - seed) <= PRINT_DEPTH_TOLERANCE, (
         f"print depth {depth * 1e9:.1f} nm, seed ≈ {seed * 1e9:.0f} nm")

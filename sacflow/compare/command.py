@@ -31,7 +31,7 @@ class Stage:
 STAGES: dict[str, Stage] = {
     "hertz-check": Stage("hertz:hertz_check", "1", help="load-approach and pressure vs Hertz"),
     "indentation": Stage(
-        "fields:indentation_profiles",
+        "fields:indentation",
         "1",
         ("offsets",),
         help="εp and residual σ11, σ33 vs depth (seed Figs. 13-16)",
@@ -52,7 +52,7 @@ STAGES: dict[str, Stage] = {
         help="residual σ11 along x1 at a depth (seed Fig. 22)",
     ),
     "track": Stage(
-        "track:track_profile",
+        "rolling_track:track",
         "1",
         ("x2", "tolerance", "end_margin"),
         help="residual displacement on a rolled track (seed Fig. 18)",
@@ -64,17 +64,17 @@ STAGES: dict[str, Stage] = {
         help="residual stress map in a plane x3 = depth (seed Fig. 21)",
     ),
     "fatigue": Stage(
-        "fatigue:fatigue_stage",
+        "fatigue_index:fatigue",
         "1",
         ("bending_limit", "torsion_limit"),
         help="Dang Van and Crossland index fields over the stored stress history",
     ),
-    "passes": Stage("passes:pass_report", "1",
+    "passes": Stage("pass_history:passes", "1",
                     help="repeated rolling: plastic flow per pass, shakedown or ratcheting"),
-    "melan": Stage("melan:melan_check", "1", ("step",),
+    "melan": Stage("melan_bound:melan", "1", ("step",),
                    help="Melan's shakedown check of the stored pressure, rolled steadily"),
     "material-point": Stage(
-        "material:material_point_stage",
+        "material:material_point",
         "1",
         ("amplitude", "cycles", "mode", "control", "mean", "increments"),
         required=("amplitude",),

@@ -115,7 +115,7 @@ RESULTS: dict[str, Meta] = {
     "unloading_deviation": Meta(
         "1", "max |δ_shifted − δ_Hertz(W)| over the unloading branch / δ_Hertz(W_max)"
     ),
-    # indentation_profiles
+    # indentation
     "residual_stress_11": Meta("Pa", "residual stress σ11"),
     "residual_stress_33": Meta("Pa", "residual stress σ33"),
     "max_plastic_strain": Meta("1", "maximum equivalent plastic strain (last step)"),
@@ -154,7 +154,7 @@ RESULTS: dict[str, Meta] = {
         "1", "max |σ(c+s) − σ(c−s)| / |min σ| about the centre c, vertical loading"
     ),
     "asymmetry_rolling": Meta("1", "max |σ(c+s) − σ(c−s)| / |min σ| about the centre c, rolling"),
-    # track_profile
+    # track
     "plateau": Meta("m", "steady-state residual displacement (median over 2nd half of track)"),
     "steady_state_distance": Meta("m", "rolled distance after which the profile is steady"),
     "steady_state_distance_over_a": Meta("1", "steady-state distance / Hertz contact radius"),

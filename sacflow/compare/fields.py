@@ -1,4 +1,4 @@
-"""Stages on the volume fields of one run: :func:`indentation_profiles`, :func:`residual_map`.
+"""Stages on the volume fields of one run: :func:`indentation`, :func:`residual_map`.
 
 Profiles off the grid points are linear interpolations between cell centres (fields are constant
 per cuboid, so this is the natural continuous reading); maps are taken in the cuboid layer
@@ -28,7 +28,7 @@ from sacflow.compare.core import (
 )
 from sacflow.solver.state import COMPONENTS
 
-__all__ = ["indentation_profiles", "refined_peak", "residual_map"]
+__all__ = ["indentation", "refined_peak", "residual_map"]
 
 
 def refined_peak(values: np.ndarray, coords: Sequence[np.ndarray]) -> tuple[float, list[float]]:
@@ -86,7 +86,7 @@ def _argext(field: xr.DataArray, fn) -> tuple[float, dict[str, float]]:
     return float(values.flat[flat]), coords
 
 
-def indentation_profiles(
+def indentation(
     run: RunLike,
     offsets: Sequence[float] = (0.0, 2e-6),
     method: Literal["linear", "nearest"] = "linear",

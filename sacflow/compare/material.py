@@ -18,13 +18,13 @@ from matplotlib.figure import Figure
 from sacflow.compare.core import CompareError
 from sacflow.mechanics.material_point import MaterialPointError, material_cycles
 
-__all__ = ["material_point_stage", "plot_material_point"]
+__all__ = ["material_point", "plot_material_point"]
 
 #: Defaults of the stage's options.
 DEFAULT_CYCLES, DEFAULT_INCREMENTS = 3, 40
 
 
-def material_point_stage(case_file: Path, amplitude: float | None = None,
+def material_point(case_file: Path, amplitude: float | None = None,
                          cycles: int | None = None, mode: str | None = None,
                          control: str | None = None, mean: float | None = None,
                          increments: int | None = None) -> xr.Dataset:

@@ -16,8 +16,8 @@ import xarray as xr
 from matplotlib.figure import Figure
 
 from sacflow.compare.material import plot_material_point
-from sacflow.compare.melan import plot_melan
-from sacflow.compare.passes import plot_passes
+from sacflow.compare.melan_bound import plot_melan
+from sacflow.compare.pass_history import plot_passes
 from sacflow.mechanics.hertz import hertz_contact, hertz_pressure
 
 __all__ = ["PLOTS", "display_scale", "plot"]

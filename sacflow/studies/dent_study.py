@@ -2,12 +2,12 @@
 
 A study is two campaigns on the same grid and load path (``pipelines/dent-study.toml``, dents
 swept over depth × width × load, and ``pipelines/dent-study-smooth.toml``, the smooth surface at
-each load), the fatigue stage (:func:`sacflow.compare.fatigue.fatigue_stage`) on every run, and
+each load), the fatigue stage (:func:`sacflow.compare.fatigue_index.fatigue`) on every run, and
 one summary Dataset along ``case`` comparing each dented case with the smooth case at its load:
 
 * ``dang_van_max`` and ``dang_van_ratio`` (over the smooth case), ``crossland_max`` and
   ``crossland_ratio``: maxima over the middle of the rolled track (cuboids more than two Hertz
-  radii from both ends, :data:`~sacflow.compare.fatigue.TRACK_MARGIN_RADII`), which the whole
+  radii from both ends, :data:`~sacflow.compare.fatigue_index.TRACK_MARGIN_RADII`), which the whole
   contact passed: near the ends the load was put on and taken off in place, a cycle that is not
   the rolling one;
 * where the maximum sits relative to the dent: ``dang_van_max_offset`` along the rolling
@@ -36,7 +36,7 @@ import xarray as xr
 from matplotlib.figure import Figure
 
 from sacflow.compare.core import case_of
-from sacflow.compare.fatigue import fatigue_stage, track_middle
+from sacflow.compare.fatigue_index import fatigue, track_middle
 from sacflow.compare.output import write
 from sacflow.compare.plots import plot_fatigue
 from sacflow.config.schema import Case
@@ -145,7 +145,7 @@ def fatigue_results(
         with xr.open_dataset(item.path) as run:
             case_id = run.attrs.get("case_id")
         if not _still_valid(target, case_id, limits):
-            result = fatigue_stage(item.path, bending_limit=bending, torsion_limit=torsion)
+            result = fatigue(item.path, bending_limit=bending, torsion_limit=torsion)
             write(result, out, target.stem)
             if progress:
                 print(f"fatigue: {item.name}: Dang Van max {float(result['dang_van_max']):.3f}",

@@ -48,7 +48,7 @@ from matplotlib.figure import Figure
 
 from sacflow.compare.core import CompareError, case_of, load_run, require
 
-__all__ = ["SHAKEDOWN_FRACTION", "pass_report", "plot_passes"]
+__all__ = ["SHAKEDOWN_FRACTION", "passes", "plot_passes"]
 
 #: Last pass's plastic flow over the first's at or below which the body has shaken down.
 SHAKEDOWN_FRACTION = 1e-2
@@ -63,7 +63,7 @@ SLOWING_FACTOR = 1.1
 RATCHET_FRACTION = 1e-2
 
 
-def pass_report(run: str | Path | xr.Dataset) -> xr.Dataset:
+def passes(run: str | Path | xr.Dataset) -> xr.Dataset:
     """Per-pass plastic flow and the shakedown verdict of a repeated rolling run (module doc).
 
     Raises

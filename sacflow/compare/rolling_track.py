@@ -1,4 +1,4 @@
-"""Stage :func:`track_profile`: residual surface displacement along a rolled track (seed Fig. 18).
+"""Stage :func:`track`: residual surface displacement along a rolled track (seed Fig. 18).
 
 The track runs from the load position at the first loaded step to the load position at the last
 loaded step (load > 0), along x1. Steady state (seed: reached after rolling ≈ 2 a):
@@ -28,7 +28,7 @@ from sacflow.compare.core import (
     step_index,
 )
 
-__all__ = ["steady_state_distance", "track_profile"]
+__all__ = ["steady_state_distance", "track"]
 
 
 def steady_state_distance(
@@ -77,7 +77,7 @@ def steady_state_distance(
     return plateau, float(distance[window[last_out + 1]])
 
 
-def track_profile(
+def track(
     run: RunLike,
     x2: float = 0.0,
     tolerance: float = 0.02,

@@ -34,7 +34,7 @@ from matplotlib.figure import Figure
 
 from sacflow.compare.core import CompareError, case_of, load_run, require
 
-__all__ = ["melan_check", "plot_melan"]
+__all__ = ["melan", "plot_melan"]
 
 STAGE = "melan"
 VERDICT_RULE = (
@@ -107,7 +107,7 @@ def _pressure_patch(ds: xr.Dataset, step: int) -> tuple[np.ndarray, tuple[float,
     return patch, cell
 
 
-def melan_check(run: str | Path | xr.Dataset, step: int | None = None) -> xr.Dataset:
+def melan(run: str | Path | xr.Dataset, step: int | None = None) -> xr.Dataset:
     """Check the stored pressure of one step with Melan's theorem (module docstring).
 
     Parameters

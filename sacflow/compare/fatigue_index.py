@@ -40,7 +40,7 @@ __all__ = [
     "ISO_281_FATIGUE_LIMIT",
     "TRACK_MARGIN_RADII",
     "track_middle",
-    "fatigue_stage",
+    "fatigue",
     "history_blocks",
 ]
 
@@ -74,7 +74,7 @@ TRACK_MARGIN_RADII = 2.0
 _STAGE = "fatigue"
 
 
-def fatigue_stage(
+def fatigue(
     run: RunLike,
     bending_limit: float | None = None,
     torsion_limit: float | None = None,
