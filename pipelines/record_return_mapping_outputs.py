@@ -7,9 +7,10 @@ structured trial stresses (elastic points, points just past the yield surface, l
 increments, shear, pure pressure), the returned stress, plastic strain increment, equivalent
 plastic strain increment, plastic flags, backstress and the tangent applied to a fixed stress
 perturbation. ``tests/test_return_mapping_regression.py`` compares the current code with them
-to 1e-10 of each array's largest value. The outputs were first recorded from the two return
-mappings (isotropic ``radial_return``, kinematic ``kinematic_return``) before they were merged
-into one (issue #29); the commit is stored in the file. Re-record only after a deliberate change
+to 1e-10 of each array's largest value. The outputs were recorded from the two return mappings
+(isotropic ``radial_return``, kinematic ``kinematic_return``) before they were merged into
+:func:`sacflow.mechanics.return_mapping.return_map` (issue #29); the commit is stored in the
+file. Re-record only after a deliberate change
 of the model (and say so in the commit):
 
     python pipelines/record_return_mapping_outputs.py
@@ -23,13 +24,11 @@ from typing import Any
 
 import numpy as np
 
-from sacflow.mechanics.kinematic import KinematicLaw, KinematicTangent, kinematic_return
-from sacflow.mechanics.plasticity import (
-    ReturnTangent,
-    deviator,
-    hardening_from_schema,
-    radial_return,
-)
+from sacflow.config.hardening_laws import hardening_from_schema
+from sacflow.mechanics.hardening import KinematicLaw
+from sacflow.mechanics.return_mapping import return_map
+from sacflow.mechanics.return_tangent import ReturnTangent
+from sacflow.mechanics.stress_measures import deviator
 
 OUT = Path(__file__).resolve().parents[1] / "data" / "return_mapping_outputs.npz"
 E, NU = 210e9, 0.3
@@ -101,27 +100,29 @@ def inputs(set_name: str) -> tuple[np.ndarray, ...]:
     return trial_states(kind, ratio, list(SETS).index(set_name) + 1)
 
 
+def outputs(law_name: str, kin_name: str | None, set_name: str,
+            with_stress: bool = True) -> dict[str, np.ndarray | None]:
+    """What the return mapping and its tangent give on one case (names as in the file)."""
+    law = hardening_from_schema(LAWS[law_name])
+    kin = None if kin_name is None else KinematicLaw(*KINEMATIC[kin_name])
+    trial, p, depth, x, direction = inputs(set_name)
+    x = None if kin is None else x
+    res = return_map(trial, p, law, MU, depth, kinematic=kin, backstress=x,
+                     with_stress=with_stress)
+    tangent = ReturnTangent(trial, res, p, law, MU, depth, kinematic=kin, backstress=x)
+    return {"stress": res.stress, "dep": res.plastic_strain_increment,
+            "dp": res.equivalent_plastic_strain_increment, "plastic": res.plastic,
+            "backstress": res.backstress, "tangent": tangent.apply(direction)}
+
+
 def main() -> None:
     arrays: dict[str, np.ndarray] = {}
-    for name, (law_name, set_name) in isotropic_cases().items():
-        law = hardening_from_schema(LAWS[law_name])
-        trial, p, depth, _, direction = inputs(set_name)
-        res = radial_return(trial, p, law, MU, depth=depth)
-        assert res.stress is not None
-        tangent = ReturnTangent(trial, res, p, law, MU, depth)
-        arrays.update({f"{name}_stress": res.stress, f"{name}_dep": res.plastic_strain_increment,
-                       f"{name}_dp": res.eqps_increment, f"{name}_plastic": res.plastic,
-                       f"{name}_tangent": tangent.apply(direction)})
-    for name, (law_name, kin_name, set_name) in kinematic_cases().items():
-        law = hardening_from_schema(LAWS[law_name])
-        kin = KinematicLaw(*KINEMATIC[kin_name])
-        trial, p, depth, x, direction = inputs(set_name)
-        kr = kinematic_return(trial, p, x, law, kin, MU, depth=depth)
-        tangent = KinematicTangent(trial, kr, p, x, law, kin, MU, depth)
-        arrays.update({f"{name}_stress": kr.stress, f"{name}_dep": kr.plastic_strain_increment,
-                       f"{name}_dp": kr.eqps_increment, f"{name}_plastic": kr.plastic,
-                       f"{name}_backstress": kr.backstress,
-                       f"{name}_tangent": tangent.apply(direction)})
+    cases: dict[str, tuple[str, str | None, str]] = {
+        name: (law, None, s) for name, (law, s) in isotropic_cases().items()}
+    cases.update(kinematic_cases())
+    for name, case in cases.items():
+        arrays.update({f"{name}_{key}": value for key, value in outputs(*case).items()
+                       if value is not None})
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True,
                             text=True, cwd=OUT.parent).stdout.strip()
     arrays["recorded_at_commit"] = np.array(commit)
