@@ -25,19 +25,19 @@ from functools import cache
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["COMPONENTS", "SHEAR_WEIGHT", "deviator", "deviatoric_equivalent",
+from sacflow.kernels.residual_displacement import SHEAR_WEIGHTS
+
+__all__ = ["COMPONENTS", "deviator", "deviatoric_equivalent",
            "double_contraction", "equivalent_strain", "equivalent_stress", "von_mises"]
 
 #: Labels of the six tensor components, in the order of the last axis.
 COMPONENTS: tuple[str, ...] = ("11", "22", "33", "12", "13", "23")
-#: Weights of the components in a double contraction: shear components count twice.
-SHEAR_WEIGHT = np.array([1.0, 1.0, 1.0, 2.0, 2.0, 2.0])
 
 
 def double_contraction(a: ArrayLike, b: ArrayLike) -> NDArray[np.float64]:
     """Return ``a:b`` of two (..., 6) symmetric tensors, shear components counted twice."""
     out: NDArray[np.float64] = np.einsum("...i,...i,i->...", np.asarray(a, float),
-                                         np.asarray(b, float), SHEAR_WEIGHT)
+                                         np.asarray(b, float), SHEAR_WEIGHTS)
     return out
 
 
