@@ -3,7 +3,7 @@
 Valid laws of every kind are drawn from the schema's own domains -- Swift (both strain units),
 Linear, PerfectlyPlastic, Tabular (``beyond_last`` constant and extrapolate), each with and
 without a depth profile -- validated by :data:`sacflow.config.schema.HardeningLaw`, built with
-:func:`sacflow.mechanics.plasticity.hardening_from_schema`, and checked: σ_Y finite, positive and
+:func:`sacflow.config.hardening_laws.hardening_from_schema`, and checked: σ_Y finite, positive and
 non-decreasing in εp, and the radial return of a trial stress above yield lands on the yield
 surface with the consistency condition satisfied (Simo & Hughes 1998, Box 3.1).
 """
@@ -17,7 +17,9 @@ from numpy.testing import assert_allclose
 from pydantic import TypeAdapter
 
 from sacflow.config import schema
-from sacflow.mechanics.plasticity import hardening_from_schema, radial_return, von_mises
+from sacflow.config.hardening_laws import hardening_from_schema
+from sacflow.mechanics.return_mapping import return_map
+from sacflow.mechanics.stress_measures import von_mises
 
 #: Stresses drawn between these [Pa]: from soft metals' yield to well past hard steels'.
 STRESS_RANGE = (1e5, 1e11)
@@ -98,11 +100,11 @@ def test_every_valid_law_builds_and_returns_onto_its_yield_surface(data, seed, o
     direction /= von_mises(direction)[:, None]
     trial = direction * (y0 * (1.0 + overshoot))[:, None]
     trial[:, :3] += rng.normal(size=(POINTS, 1)) * y0[:, None]
-    res = radial_return(trial, p_old, law, mu, depth=depth)
+    res = return_map(trial, p_old, law, mu, depth=depth)
     assert res.plastic.all()
-    assert np.all(res.eqps_increment > 0) and np.all(np.isfinite(res.stress))
-    y_new = law.yield_stress(p_old + res.eqps_increment, depth)
+    assert np.all(res.equivalent_plastic_strain_increment > 0) and np.all(np.isfinite(res.stress))
+    y_new = law.yield_stress(p_old + res.equivalent_plastic_strain_increment, depth)
     assert_allclose(von_mises(res.stress), y_new, rtol=1e-9, err_msg=f"off the surface: {data}")
     q_tr = von_mises(trial)
-    assert_allclose(q_tr - 3.0 * mu * res.eqps_increment, y_new, rtol=1e-8,
+    assert_allclose(q_tr - 3.0 * mu * res.equivalent_plastic_strain_increment, y_new, rtol=1e-8,
                     atol=1e-9 * float(np.max(q_tr)), err_msg=f"consistency: {data}")

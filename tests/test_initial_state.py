@@ -13,8 +13,9 @@ import numpy as np
 import pytest
 
 from sacflow.errors import ConfigError
-from sacflow.mechanics.hertz import composite_modulus, hertz_subsurface_stress, von_mises
+from sacflow.mechanics.hertz import composite_modulus, hertz_subsurface_stress
 from sacflow.mechanics.initial_state import InitialYieldError
+from sacflow.mechanics.stress_measures import von_mises
 from sacflow.solver.simulation import Simulation
 from sacflow.storage.case_file import case_from_dict
 

@@ -1,4 +1,4 @@
-"""Kinematic hardening (sacflow.mechanics.kinematic) and the material-point driver (issue #19,
+"""Kinematic hardening (sacflow.mechanics.return_mapping) and the material-point driver (issue #19,
 part).
 
 * Armstrong–Frederick under uniaxial strain cycles against its closed form
@@ -19,15 +19,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sacflow.mechanics.kinematic import KinematicLaw, kinematic_return
+from sacflow.config.hardening_laws import hardening_from_schema, kinematic_from_schema
+from sacflow.mechanics.hardening import KinematicLaw, PerfectPlasticity, SwiftHardening
 from sacflow.mechanics.material_point import STRESS_TOL, cycle_path, material_cycles
-from sacflow.mechanics.plasticity import (
-    PerfectlyPlastic,
-    Swift,
-    deviator,
-    double_contraction,
-    radial_return,
-)
+from sacflow.mechanics.return_mapping import return_map
+from sacflow.mechanics.stress_measures import deviator, double_contraction
 from sacflow.storage.case_file import load_case
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -41,13 +37,19 @@ def af(recall: float = GAMMA, modulus: float = C) -> dict:
             "kinematic": {"modulus": modulus, "recall": recall}}
 
 
+def cycle(hardening: dict, *args, **kwargs):
+    """``material_cycles`` of a schema hardening law, built as the material-point stage does."""
+    return material_cycles(hardening_from_schema(hardening), *args,
+                           kinematic=kinematic_from_schema(hardening), **kwargs)
+
+
 def uniaxial_backstress(ds) -> np.ndarray:
     return 1.5 * ds["backstress"].sel(component="11").values
 
 
 @pytest.mark.parametrize("increments", [5, 40])
 def test_armstrong_frederick_follows_its_closed_form(increments):
-    ds = material_cycles(af(), E, NU, amplitude=0.01, cycles=1, increments=increments)
+    ds = cycle(af(), E, NU, amplitude=0.01, cycles=1, increments=increments)
     alpha = uniaxial_backstress(ds)
     ep = ds["plastic_strain"].sel(component="11").values
     n = increments
@@ -69,7 +71,7 @@ def test_armstrong_frederick_follows_its_closed_form(increments):
 def test_bauschinger_effect():
     """After tension to σ_max the reverse yield comes at σ = α − σ_Y, |σ| < σ_Y."""
     n = 60
-    ds = material_cycles(af(), E, NU, amplitude=0.005, cycles=1, increments=n)
+    ds = cycle(af(), E, NU, amplitude=0.005, cycles=1, increments=n)
     stress = ds["driven_stress"].values
     ep = ds["plastic_strain"].sel(component="11").values
     alpha = uniaxial_backstress(ds)
@@ -84,7 +86,7 @@ def test_bauschinger_effect():
 
 def test_linear_kinematic_hysteresis_loop_is_closed_form_and_stable():
     n = 50
-    ds = material_cycles(af(recall=0.0), E, NU, amplitude=0.006, cycles=2, increments=n)
+    ds = cycle(af(recall=0.0), E, NU, amplitude=0.006, cycles=2, increments=n)
     stress = ds["driven_stress"].values
     ep = ds["plastic_strain"].sel(component="11").values
     dep = np.diff(ep)
@@ -100,9 +102,9 @@ def test_linear_kinematic_hysteresis_loop_is_closed_form_and_stable():
 
 def test_without_kinematic_hardening_the_driver_uses_the_solver_return():
     law = {"law": "swift", "B": 1240e6, "C": 30.0, "n": 0.085, "strain_unit": "microstrain"}
-    ds = material_cycles(law, 210e9, 0.3, amplitude=0.012, cycles=0, increments=20)
+    ds = cycle(law, 210e9, 0.3, amplitude=0.012, cycles=0, increments=20)
     assert not ds["backstress"].values.any()
-    swift = Swift(1240e6, 30.0, 0.085, "microstrain")
+    swift = SwiftHardening(1240e6, 30.0, 0.085, "microstrain")
     # uniaxial: on the plastic increments the axial stress is the yield stress at p
     p = ds["equivalent_plastic_strain"].values
     stress = ds["driven_stress"].values
@@ -115,12 +117,13 @@ def test_zero_kinematic_modulus_is_the_isotropic_return():
     rng = np.random.default_rng(3)
     trial = rng.normal(scale=600e6, size=(500, 6))
     p = rng.uniform(0, 0.01, 500)
-    law = Swift(1240e6, 30.0, 0.085, "microstrain")
-    iso = radial_return(trial, p, law, MU)
-    kin = kinematic_return(trial, p, np.zeros(6), law, KinematicLaw(0.0, 0.0), MU)
+    law = SwiftHardening(1240e6, 30.0, 0.085, "microstrain")
+    iso = return_map(trial, p, law, MU)
+    kin = return_map(trial, p, law, MU, kinematic=KinematicLaw(0.0, 0.0), backstress=np.zeros(6))
     np.testing.assert_array_equal(kin.plastic, iso.plastic)
     np.testing.assert_allclose(kin.stress, iso.stress, rtol=1e-12, atol=1e-3)
-    np.testing.assert_allclose(kin.eqps_increment, iso.eqps_increment, rtol=1e-9, atol=1e-18)
+    np.testing.assert_allclose(kin.equivalent_plastic_strain_increment,
+                               iso.equivalent_plastic_strain_increment, rtol=1e-9, atol=1e-18)
 
 
 @pytest.mark.parametrize(("modulus", "recall"), [(50e9, 0.0), (50e9, 200.0), (5e9, 2000.0)])
@@ -129,9 +132,9 @@ def test_return_is_consistent_for_random_multiaxial_states(modulus, recall):
     trial = rng.normal(scale=800e6, size=(1000, 6))
     x_old = deviator(rng.normal(scale=100e6, size=(1000, 6)))
     p = rng.uniform(0, 0.02, 1000)
-    law = PerfectlyPlastic(SY)
+    law = PerfectPlasticity(SY)
     kin = KinematicLaw(modulus, recall)
-    ret = kinematic_return(trial, p, x_old, law, kin, MU)
+    ret = return_map(trial, p, law, MU, kinematic=kin, backstress=x_old)
     eta = deviator(ret.stress) - ret.backstress
     q = np.sqrt(1.5 * double_contraction(eta, eta))
     assert np.all(q[ret.plastic] == pytest.approx(SY, rel=1e-10))
@@ -146,7 +149,7 @@ def test_return_is_consistent_for_random_multiaxial_states(modulus, recall):
 
 def test_stress_controlled_cycles_with_a_mean_stress_ratchet():
     """Armstrong–Frederick under a mean stress: the plastic strain grows every cycle."""
-    ds = material_cycles(af(), E, NU, amplitude=350e6, mean=100e6, cycles=4, increments=40,
+    ds = cycle(af(), E, NU, amplitude=350e6, mean=100e6, cycles=4, increments=40,
                          control="stress")
     ep = ds["plastic_strain"].sel(component="11").values
     peaks = ep[40::80]  # at each maximum of the stress
@@ -154,7 +157,7 @@ def test_stress_controlled_cycles_with_a_mean_stress_ratchet():
 
 
 def test_shear_cycles_stay_on_the_yield_surface():
-    ds = material_cycles(af(), E, NU, amplitude=0.004, cycles=1, increments=30, mode="shear")
+    ds = cycle(af(), E, NU, amplitude=0.004, cycles=1, increments=30, mode="shear")
     stress, x = ds["stress"].values, ds["backstress"].values
     p = ds["equivalent_plastic_strain"].values
     plastic = np.diff(p) > 0

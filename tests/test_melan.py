@@ -16,8 +16,9 @@ import pytest
 from numpy.testing import assert_allclose
 from scipy.integrate import quad
 
-from sacflow.mechanics.hertz import line_contact_stress, von_mises
+from sacflow.mechanics.hertz import line_contact_stress
 from sacflow.mechanics.shakedown import SteadyResidualField, melan_bound, rolling_shakedown_bound
+from sacflow.mechanics.stress_measures import von_mises
 
 SQRT3 = np.sqrt(3.0)
 ROOT = Path(__file__).resolve().parents[1]

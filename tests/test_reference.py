@@ -23,8 +23,8 @@ from sacflow.mechanics.hertz import (
     hertz_pressure,
     hertz_subsurface_stress,
     hertz_surface_displacement,
-    von_mises,
 )
+from sacflow.mechanics.stress_measures import von_mises
 
 NU = 0.3
 

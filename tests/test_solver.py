@@ -10,7 +10,7 @@ from numpy.testing import assert_allclose
 
 from sacflow.errors import ConvergenceError
 from sacflow.mechanics.hertz import composite_modulus, hertz_contact
-from sacflow.mechanics.plasticity import von_mises
+from sacflow.mechanics.stress_measures import von_mises
 from sacflow.solver.simulation import Simulation
 from sacflow.storage.case_file import case_from_dict
 

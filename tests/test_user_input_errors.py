@@ -17,15 +17,12 @@ from numpy.testing import assert_allclose
 
 from sacflow import runner
 from sacflow.cli import EXIT_CONFIG, main
+from sacflow.config.hardening_laws import hardening_from_schema
 from sacflow.config.schema import Case
 from sacflow.errors import ConfigError
-from sacflow.mechanics.plasticity import (
-    Swift,
-    Tabular,
-    hardening_from_schema,
-    radial_return,
-    von_mises,
-)
+from sacflow.mechanics.hardening import SwiftHardening, TabularHardening
+from sacflow.mechanics.return_mapping import return_map
+from sacflow.mechanics.stress_measures import von_mises
 from sacflow.storage.case_file import load_case
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
@@ -211,11 +208,11 @@ def test_swift_offset_zero_rejected_by_the_schema(capsys):
 
 def test_runtime_laws_use_the_schema_rules():
     with pytest.raises(ValueError, match="hardening law 'swift': field 'C'"):
-        Swift(1240e6, 0.0, 0.085)
+        SwiftHardening(1240e6, 0.0, 0.085)
     with pytest.raises(ValueError, match="field 'n'"):
-        Swift(1240e6, 30.0, 1.5)  # the old runtime check took any n >= 0
+        SwiftHardening(1240e6, 30.0, 1.5)  # the old runtime check took any n >= 0
     with pytest.raises(ValueError, match="field 'B'.*initial yield stress"):
-        Swift(1e300, 1e300, 0.99, strain_unit="strain")
+        SwiftHardening(1e300, 1e300, 0.99, strain_unit="strain")
 
 
 # --------------------------------------------------------------------------- 7. tabular end
@@ -230,12 +227,12 @@ def test_tabular_beyond_last_point():
     # the radial return lands on the surface of the chosen behaviour, past the last point
     trial = np.array([[3.0e9, 0.0, 0.0, 0.0, 0.0, 0.0]])
     for law, expected in ((constant, 1.1e9), (extrapolate, None)):
-        res = radial_return(trial, 1e-3, law, MU)
-        p = 1e-3 + res.eqps_increment[0]
+        res = return_map(trial, 1e-3, law, MU)
+        p = 1e-3 + res.equivalent_plastic_strain_increment[0]
         assert p > 1e-3
         target = expected if expected is not None else law.yield_stress(p)
         assert_allclose(von_mises(res.stress)[0], target, rtol=1e-10)
-    assert isinstance(constant, Tabular) and constant.beyond_last == "constant"
+    assert isinstance(constant, TabularHardening) and constant.beyond_last == "constant"
 
 
 def test_tabular_beyond_last_in_a_case():

@@ -16,6 +16,7 @@ import xarray as xr
 from matplotlib.figure import Figure
 
 from sacflow.compare.core import CompareError
+from sacflow.config.hardening_laws import hardening_from_schema, kinematic_from_schema
 from sacflow.mechanics.material_point import MaterialPointError, material_cycles
 
 __all__ = ["material_point", "plot_material_point"]
@@ -57,9 +58,11 @@ def material_point(case_file: Path, amplitude: float | None = None,
     cycles = DEFAULT_CYCLES if cycles is None else cycles
     increments = DEFAULT_INCREMENTS if increments is None else increments
     try:
-        result = material_cycles(body.hardening, body.E, body.nu, amplitude, cycles=cycles,
-                                 increments=increments, mean=mean or 0.0,
-                                 mode=mode or "uniaxial", control=control or "strain")
+        result = material_cycles(hardening_from_schema(body.hardening), body.E, body.nu,
+                                 amplitude, cycles=cycles, increments=increments,
+                                 mean=mean or 0.0, mode=mode or "uniaxial",
+                                 control=control or "strain",
+                                 kinematic=kinematic_from_schema(body.hardening))
     except (ValueError, MaterialPointError) as exc:
         raise CompareError(f"material-point: {exc}") from None
     result.attrs.update(stage="material-point", case=str(data.get("name", Path(case_file).stem)),

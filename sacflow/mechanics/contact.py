@@ -43,11 +43,6 @@ class ContactResult:
     iterations: int
     error: float
 
-    @property
-    def contact_mask(self) -> np.ndarray:
-        """Cells that carry pressure."""
-        return self.pressure > 0.0
-
 
 def solve_contact(
     h: np.ndarray,
@@ -190,6 +185,7 @@ def _start_pressure(
 
     Under load control it is scaled to carry the load.
     """
+    p: np.ndarray
     if initial_pressure is not None and np.any(initial_pressure > 0):
         p = np.maximum(np.asarray(initial_pressure, dtype=float), 0.0).copy()
     elif load is not None:
@@ -268,7 +264,7 @@ def _rescale_to_load(
         raise ConvergenceError(
             "contact", step=step, residual=np.inf, tolerance=tol, iterations=iteration
         )
-    rescale = load / total
+    rescale = float(load / total)
     p *= rescale
     return rescale
 

@@ -35,7 +35,6 @@ __all__ = [
     "hertz_subsurface_stress",
     "hertz_surface_displacement",
     "line_contact_stress",
-    "von_mises",
 ]
 
 
@@ -68,11 +67,6 @@ class HertzContact:
     a: float
     p0: float
     approach: float
-
-    @property
-    def mean_pressure(self) -> float:
-        """Mean pressure W / (π a²) = 2 p0 / 3."""
-        return 2.0 * self.p0 / 3.0
 
 
 def hertz_contact(load: float, radius: float, e_star: float) -> HertzContact:
@@ -329,31 +323,6 @@ def line_contact_stress(
     out[..., 4] = -n * (m * m - z * z) / (m * m + n * n)
     out[..., 1] = nu * (out[..., 0] + out[..., 2])
     return (p0 / a) * out
-
-
-def von_mises(stress: ArrayLike) -> NDArray[np.float64]:
-    r"""Von Mises equivalent stress of (..., 6) arrays in the order (11, 22, 33, 12, 13, 23).
-
-    .. math:: \sigma_{vM} = \sqrt{\tfrac12\left[(\sigma_{11}-\sigma_{22})^2
-        + (\sigma_{22}-\sigma_{33})^2 + (\sigma_{33}-\sigma_{11})^2\right]
-        + 3(\sigma_{12}^2 + \sigma_{13}^2 + \sigma_{23}^2)}
-
-    Parameters
-    ----------
-    stress : array_like, shape (..., 6)
-        Stress tensors (tensor shear components, not engineering ones).
-
-    Returns
-    -------
-    ndarray
-        Equivalent stress, shape (...).
-    """
-    s = np.asarray(stress, dtype=np.float64)
-    if s.shape[-1:] != (6,):
-        raise ValueError(f"stress must have a last axis of size 6, got shape {s.shape}")
-    d = (s[..., 0] - s[..., 1]) ** 2 + (s[..., 1] - s[..., 2]) ** 2 + (s[..., 2] - s[..., 0]) ** 2
-    shear = s[..., 3] ** 2 + s[..., 4] ** 2 + s[..., 5] ** 2
-    return np.sqrt(0.5 * d + 3.0 * shear)
 
 
 def first_yield(nu: float) -> tuple[float, float, float]:

@@ -10,19 +10,23 @@ No I/O.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from sacflow.errors import SacflowError
-from sacflow.mechanics.plasticity import HardeningLaw, von_mises
+from sacflow.mechanics.hardening import HardeningLaw
+from sacflow.mechanics.stress_measures import von_mises
 
 __all__ = [
     "InitialStateError",
     "InitialYieldError",
     "StoredState",
     "check_initial_yield",
-    "initial_eqps",
+    "initial_equivalent_plastic_strain",
     "initial_stress",
     "MappedState",
     "map_state",
@@ -36,12 +40,42 @@ class InitialYieldError(SacflowError):
     """The initial residual stress exceeds the yield stress somewhere in the box."""
 
 
-def _profile(depth, values, x3: np.ndarray) -> np.ndarray:
+class ResidualStressProfile(Protocol):
+    """σ11(x3), σ22(x3) at the points ``depth`` (the schema's ``InitialResidualStress``)."""
+
+    @property
+    def depth(self) -> Sequence[float]:
+        """Depths of the points [m], increasing."""
+
+    @property
+    def s11(self) -> Sequence[float]:
+        """σ11 at the points [Pa]."""
+
+    @property
+    def s22(self) -> Sequence[float]:
+        """σ22 at the points [Pa]."""
+
+
+class HardeningProfile(Protocol):
+    """p0(x3) at the points ``depth`` (the schema's ``InitialHardening``)."""
+
+    @property
+    def depth(self) -> Sequence[float]:
+        """Depths of the points [m], increasing."""
+
+    @property
+    def equivalent_plastic_strain(self) -> Sequence[float]:
+        """Equivalent plastic strain at the points."""
+
+
+def _profile(depth: ArrayLike, values: ArrayLike, x3: np.ndarray) -> np.ndarray:
     """Linear interpolation in depth, constant beyond the ends (``np.interp``)."""
-    return np.interp(x3, np.asarray(depth, dtype=float), np.asarray(values, dtype=float))
+    out: np.ndarray = np.interp(x3, np.asarray(depth, dtype=float),
+                                np.asarray(values, dtype=float))
+    return out
 
 
-def initial_stress(profile, x3: np.ndarray) -> np.ndarray | None:
+def initial_stress(profile: ResidualStressProfile | None, x3: np.ndarray) -> np.ndarray | None:
     """Return the initial residual stress at the layers ``x3``, shape (nz, 6), or None.
 
     Parameters
@@ -59,15 +93,16 @@ def initial_stress(profile, x3: np.ndarray) -> np.ndarray | None:
     return out
 
 
-def initial_eqps(profile, x3: np.ndarray) -> np.ndarray:
+def initial_equivalent_plastic_strain(profile: HardeningProfile | None,
+                                      x3: np.ndarray) -> np.ndarray:
     """Return the initial equivalent plastic strain at the layers ``x3`` (zeros if no profile)."""
     if profile is None:
         return np.zeros(np.size(x3))
     return _profile(profile.depth, profile.equivalent_plastic_strain, x3)
 
 
-def check_initial_yield(law: HardeningLaw, stress: np.ndarray, eqps: np.ndarray,
-                        x3: np.ndarray) -> None:
+def check_initial_yield(law: HardeningLaw, stress: np.ndarray,
+                        equivalent_plastic_strain: np.ndarray, x3: np.ndarray) -> None:
     """Refuse an initial residual stress above the initial yield stress of its layer.
 
     Raises
@@ -76,7 +111,7 @@ def check_initial_yield(law: HardeningLaw, stress: np.ndarray, eqps: np.ndarray,
         Naming the depth, the von Mises stress of the profile and the yield stress there.
     """
     q = von_mises(stress)
-    yield_stress = np.asarray(law.yield_stress(eqps, x3), dtype=float)
+    yield_stress = np.asarray(law.yield_stress(equivalent_plastic_strain, x3), dtype=float)
     over = np.flatnonzero(q > yield_stress * (1.0 + _YIELD_SLACK))
     if over.size:
         k = int(over[0])
@@ -98,7 +133,7 @@ class StoredState:
         Cell centres of the source's body grid [m].
     plastic_strain : ndarray, shape (n1, n2, n3, 6)
         Plastic strain tensor (tensor shears).
-    eqps : ndarray, shape (n1, n2, n3)
+    equivalent_plastic_strain : ndarray, shape (n1, n2, n3)
         Equivalent plastic strain.
     case_id, step : str, int
         The source run's case id and the step number taken.
@@ -111,7 +146,7 @@ class StoredState:
     x2: np.ndarray
     x3: np.ndarray
     plastic_strain: np.ndarray
-    eqps: np.ndarray
+    equivalent_plastic_strain: np.ndarray
     case_id: str
     step: int
     backstress: np.ndarray | None = None
@@ -122,7 +157,7 @@ class MappedState:
     """A stored plastic state on the new body grid (see :func:`map_state`)."""
 
     plastic_strain: np.ndarray
-    eqps: np.ndarray
+    equivalent_plastic_strain: np.ndarray
     backstress: np.ndarray | None
 
 
@@ -142,7 +177,7 @@ def map_state(state: StoredState, x1: np.ndarray, x2: np.ndarray, x3: np.ndarray
     """
     sx1, sx2 = state.x1 + offset[0], state.x2 + offset[1]
     _check_cover(state, (sx1, sx2, state.x3), (x1, x2, x3))
-    parts = [state.plastic_strain, state.eqps[..., None]]
+    parts = [state.plastic_strain, state.equivalent_plastic_strain[..., None]]
     if state.backstress is not None:
         parts.append(state.backstress)
     if _same(sx1, x1) and _same(sx2, x2) and _same(state.x3, x3):
@@ -169,8 +204,9 @@ def _same(a: np.ndarray, b: np.ndarray) -> bool:
     return bool(np.all(np.abs(a - b) <= _SAME_GRID_RTOL * cell))
 
 
-def _check_cover(state: StoredState, source: tuple, target: tuple) -> None:
-    plastic = state.eqps > 0.0
+def _check_cover(state: StoredState, source: tuple[np.ndarray, ...],
+                 target: tuple[np.ndarray, ...]) -> None:
+    plastic = state.equivalent_plastic_strain > 0.0
     if not plastic.any():
         return
     for axis, (s, t, name) in enumerate(zip(source, target, ("x1", "x2", "x3"), strict=True)):

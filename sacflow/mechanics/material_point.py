@@ -1,10 +1,10 @@
 """Material-point driver: uniaxial and shear cycles of a hardening law (strain or stress control).
 
 Checks a parameter set (isotropic law, kinematic hardening) on the loops it gives before it goes
-into a contact run: the same return mapping as the solver (:func:`sacflow.mechanics.plasticity.
-radial_return`, or :func:`sacflow.mechanics.kinematic.kinematic_return` with a backstress), driven
-through
-a cyclic path of one controlled component, the other stress components held at zero.
+into a contact run: the same return mapping as the solver
+(:func:`sacflow.mechanics.return_mapping.return_map`, with a backstress for kinematic hardening),
+driven through a cyclic path of one controlled component, the other stress components held at
+zero.
 
 Control (tensor components, order 11, 22, 33, 12, 13, 23):
 
@@ -22,14 +22,15 @@ the initial yield stress).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 import xarray as xr
 
-from sacflow.mechanics.kinematic import kinematic_from_schema, kinematic_return
-from sacflow.mechanics.plasticity import hardening_from_schema, radial_return
-from sacflow.solver.state import COMPONENTS
+from sacflow.mechanics.hardening import HardeningLaw, KinematicLaw
+from sacflow.mechanics.return_mapping import return_map
+from sacflow.mechanics.stress_measures import COMPONENTS
 
 __all__ = ["MaterialPointError", "cycle_path", "material_cycles"]
 
@@ -65,15 +66,20 @@ def cycle_path(amplitude: float, cycles: int, increments: int, mean: float = 0.0
     return np.concatenate(out)
 
 
-def material_cycles(hardening: Any, E: float, nu: float, amplitude: float, cycles: int = 2,
+#: What one return gives the driver: stress, Δεp, Δp and the backstress after it.
+Response = tuple[np.ndarray, np.ndarray, float, np.ndarray]
+
+
+def material_cycles(law: HardeningLaw, E: float, nu: float, amplitude: float, cycles: int = 2,
                     increments: int = 50, mean: float = 0.0, mode: str = "uniaxial",
-                    control: str = "strain") -> xr.Dataset:
+                    control: str = "strain", kinematic: KinematicLaw | None = None
+                    ) -> xr.Dataset:
     """Drive one material point through a cyclic path (module docstring) and return its history.
 
     Parameters
     ----------
-    hardening : schema hardening law (or dict with ``law``)
-        Isotropic law, optionally with ``kinematic = {modulus, recall}``.
+    law : HardeningLaw
+        Isotropic law (:mod:`sacflow.mechanics.hardening`).
     E, nu : float
         Young's modulus [Pa] and Poisson's ratio.
     amplitude, mean : float
@@ -82,6 +88,8 @@ def material_cycles(hardening: Any, E: float, nu: float, amplitude: float, cycle
         Full cycles after the first loading; increments per half-cycle.
     mode : {"uniaxial", "shear"}
     control : {"strain", "stress"}
+    kinematic : KinematicLaw, optional
+        Armstrong–Frederick backstress law combined with ``law``.
 
     Returns
     -------
@@ -97,8 +105,6 @@ def material_cycles(hardening: Any, E: float, nu: float, amplitude: float, cycle
     """
     if mode not in MODES or control not in ("strain", "stress"):
         raise ValueError(f"mode must be one of {list(MODES)} and control 'strain' or 'stress'")
-    law = hardening_from_schema(hardening)
-    kin = kinematic_from_schema(hardening)
     mu, lam = E / (2.0 * (1.0 + nu)), E * nu / ((1.0 + nu) * (1.0 - 2.0 * nu))
     driven, held = MODES[mode]
     unknown = list(held) + ([driven] if control == "stress" else [])
@@ -106,20 +112,19 @@ def material_cycles(hardening: Any, E: float, nu: float, amplitude: float, cycle
     targets = cycle_path(amplitude, cycles, increments, mean)
     n = targets.size + 1
     hist = {k: np.zeros((n, 6)) for k in ("strain", "stress", "plastic_strain", "backstress")}
-    eqps = np.zeros(n)
+    equivalent_plastic_strain = np.zeros(n)
     state = (np.zeros(6), 0.0, np.zeros(6))  # εp, p, X
 
-    def respond(strain: np.ndarray):
+    def respond(strain: np.ndarray) -> Response:
         ep, p, x = state
         elastic = strain - ep
         trial = 2.0 * mu * elastic
         trial[:3] += lam * elastic[:3].sum()
-        if kin is None:
-            ret = radial_return(trial, p, law, mu)
-            assert ret.stress is not None  # asked for (the default)
-            return ret.stress, ret.plastic_strain_increment, float(ret.eqps_increment), x
-        kr = kinematic_return(trial, p, x, law, kin, mu)
-        return kr.stress, kr.plastic_strain_increment, float(kr.eqps_increment), kr.backstress
+        ret = return_map(trial, p, law, mu, kinematic=kinematic, backstress=x)
+        assert ret.stress is not None  # asked for (the default)
+        x_new = x if ret.backstress is None else ret.backstress
+        return (ret.stress, ret.plastic_strain_increment,
+                float(ret.equivalent_plastic_strain_increment), x_new)
 
     strain = np.zeros(6)
     for i, target in enumerate(targets, start=1):
@@ -133,11 +138,11 @@ def material_cycles(hardening: Any, E: float, nu: float, amplitude: float, cycle
         state = (state[0] + dep, state[1] + dp, x_new)
         hist["strain"][i], hist["stress"][i] = strain, stress
         hist["plastic_strain"][i], hist["backstress"][i] = state[0], x_new
-        eqps[i] = state[1]
+        equivalent_plastic_strain[i] = state[1]
     data: dict[str, tuple[Any, ...]] = {
         name: (("increment", "component"), value, {"units": "Pa" if "stress" in name else "1"})
         for name, value in hist.items()}
-    data["equivalent_plastic_strain"] = ("increment", eqps, {"units": "1"})
+    data["equivalent_plastic_strain"] = ("increment", equivalent_plastic_strain, {"units": "1"})
     data["driven_strain"] = ("increment", hist["strain"][:, driven], {"units": "1"})
     data["driven_stress"] = ("increment", hist["stress"][:, driven], {"units": "Pa"})
     ds = xr.Dataset(data, coords={"increment": np.arange(n), "component": list(COMPONENTS)})
@@ -148,7 +153,8 @@ def material_cycles(hardening: Any, E: float, nu: float, amplitude: float, cycle
     return ds
 
 
-def _solve(respond, strain: np.ndarray, unknown: list[int], wanted: np.ndarray, scale: float,
+def _solve(respond: Callable[[np.ndarray], Response], strain: np.ndarray, unknown: list[int],
+           wanted: np.ndarray, scale: float,
            increment: int) -> np.ndarray:
     """Newton on the unknown strain components until their stresses equal ``wanted``."""
     strain = strain.copy()

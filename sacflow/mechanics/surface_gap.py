@@ -8,7 +8,8 @@ the load point, the surface features are body-fixed and move with body 1 (seed Â
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from typing import Protocol
 
 import numpy as np
 
@@ -48,7 +49,33 @@ def dent_profile(
     return depth * np.cos(2.0 * np.pi * r / width) * np.exp(-decay * r**2 / width**2)
 
 
-def features_gap(x1: np.ndarray, x2: np.ndarray, dents: Sequence, heights=None) -> np.ndarray:
+class Dent(Protocol):
+    """A damped-sinusoid dent (the schema's ``Dent``): see :func:`dent_profile`."""
+
+    @property
+    def depth(self) -> float:
+        """Amplitude A [m]."""
+
+    @property
+    def width(self) -> float:
+        """Width w [m]."""
+
+    @property
+    def decay(self) -> float:
+        """Decay of the envelope."""
+
+    @property
+    def x1(self) -> float:
+        """Centre x1 [m]."""
+
+    @property
+    def x2(self) -> float:
+        """Centre x2 [m]."""
+
+
+def features_gap(x1: np.ndarray, x2: np.ndarray, dents: Sequence[Dent],
+                 heights: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None
+                 ) -> np.ndarray:
     """Gap contribution of the body-fixed surface features at body-frame points (x1, x2).
 
     Parameters

@@ -5,8 +5,8 @@ Per load increment the solver finds the plastic strain increment ``Δεp`` that 
     Δεp = R( σ^pr(p) + σ^r(εp_old + Δεp) + 2μ Δεp ),
     p   = elastic contact on the gap  h_geometry + u3^r(εp_old + Δεp),
 
-where ``R`` is the fully implicit J2 radial return
-(:func:`sacflow.mechanics.plasticity.radial_return`),
+where ``R`` is the fully implicit J2 return mapping
+(:func:`sacflow.mechanics.return_mapping.return_map`),
 ``σ^pr`` the stress of the contact pressure, ``σ^r`` the residual stress and ``u3^r`` the
 residual surface displacement of the plastic strain (:mod:`sacflow.kernels.eigenstrain`). The
 seed nests two loops (contact ↔ plastic strain); here both are one fixed point
@@ -37,27 +37,24 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from sacflow.config.hardening_laws import hardening_from_schema, kinematic_from_schema
 from sacflow.errors import BoxTooShallowError, ConvergenceError, SacflowError
 from sacflow.kernels.fft import Convolution
 from sacflow.kernels.shear import surface_load_stress_coefficients
 from sacflow.kernels.surface import rectangle_displacement
 from sacflow.machine.threads import single_threaded_blas
 from sacflow.mechanics.contact import ContactResult, solve_contact
+from sacflow.mechanics.hardening import NoPlasticity
 from sacflow.mechanics.initial_state import (
     StoredState,
     check_initial_yield,
-    initial_eqps,
+    initial_equivalent_plastic_strain,
     initial_stress,
     map_state,
 )
-from sacflow.mechanics.kinematic import KinematicTangent, kinematic_from_schema, kinematic_return
-from sacflow.mechanics.plasticity import (
-    Elastic,
-    ReturnTangent,
-    hardening_from_schema,
-    radial_return,
-    von_mises,
-)
+from sacflow.mechanics.return_mapping import return_map
+from sacflow.mechanics.return_tangent import ReturnTangent
+from sacflow.mechanics.stress_measures import von_mises
 from sacflow.mechanics.surface_gap import curvature_gap, features_gap
 from sacflow.solver.anderson import AndersonMixer
 from sacflow.solver.layout import StepPlan, auto_depth, body_grid, plan_steps
@@ -143,7 +140,7 @@ class Simulation:
         self.case = case
         body = case.body
         self.law = hardening_from_schema(body.hardening)
-        self.plastic = not isinstance(self.law, Elastic)
+        self.plastic = not isinstance(self.law, NoPlasticity)
         self.kinematic = kinematic_from_schema(body.hardening) if self.plastic else None
         self.E, self.nu = float(body.E), float(body.nu)
         self.mu = self.E / (2.0 * (1.0 + self.nu))
@@ -170,7 +167,7 @@ class Simulation:
         dx1, dx2 = self.cell
         x1 = (np.arange(self.body_shape[0]) - grid.origin[0] - nx / 2 + 0.5) * dx1
         x2 = (np.arange(self.body_shape[1]) - grid.origin[1] - ny / 2 + 0.5) * dx2
-        law = None if isinstance(self.law, Elastic) else self.law
+        law = None if isinstance(self.law, NoPlasticity) else self.law
         depth = case.grid.depth or auto_depth(case, law, hertz.a, hertz.p0)
         self.nz = case.grid.nz
         self.dz = depth / self.nz
@@ -184,7 +181,7 @@ class Simulation:
         self.plastic_strain = np.zeros((*shape, 6))
         # Initial state (schema: body.initial_residual_stress, body.initial_hardening).
         self._initial_stress = initial_stress(body.initial_residual_stress, x3)
-        self._eqps0 = initial_eqps(body.initial_hardening, x3)
+        self._eqps0 = initial_equivalent_plastic_strain(body.initial_hardening, x3)
         if self.plastic and self._initial_stress is not None:
             check_initial_yield(self.law, self._initial_stress, self._eqps0, x3)
         self.eqps = np.broadcast_to(self._eqps0, shape).copy()
@@ -219,7 +216,7 @@ class Simulation:
             )
         c = self.coords
         mapped = map_state(stored, c.x1, c.x2, c.x3, spec.offset)
-        self.plastic_strain, self.eqps = mapped.plastic_strain, mapped.eqps
+        self.plastic_strain, self.eqps = mapped.plastic_strain, mapped.equivalent_plastic_strain
         if self.backstress is not None and mapped.backstress is not None:
             self.backstress = mapped.backstress  # else zero: the source had no kinematic law
         self._eqps0 = self.eqps.copy()
@@ -573,22 +570,20 @@ class Simulation:
         ret = out.evaluation.data[1]
         self._last_backstress = getattr(ret, "backstress", None)
         dx = out.x if coupled else ret.plastic_strain_increment
-        return dx, ret.eqps_increment, applications, out.evaluation.residual
+        return dx, ret.equivalent_plastic_strain_increment, applications, out.evaluation.residual
 
     def _return(self, trial: np.ndarray, eqps: np.ndarray, depth: np.ndarray):
         """Return-map the trial stress with the body's law: isotropic, or with the backstress."""
         if self.kinematic is None:
-            return radial_return(trial, eqps, self.law, self.mu, depth=depth,
-                                 with_stress=False)  # the increments are what it needs
-        return kinematic_return(trial, eqps, self.backstress, self.law, self.kinematic,
-                                self.mu, depth=depth)
+            return return_map(trial, eqps, self.law, self.mu, depth=depth,
+                              with_stress=False)  # the increments are what it needs
+        return return_map(trial, eqps, self.law, self.mu, depth=depth, kinematic=self.kinematic,
+                          backstress=self.backstress)
 
     def _tangent(self, trial: np.ndarray, ret, eqps: np.ndarray, depth: np.ndarray):
         """Return the derivative of the return w.r.t. the trial stress (Newton–Krylov)."""
-        if self.kinematic is None:
-            return ReturnTangent(trial, ret, eqps, self.law, self.mu, depth)
-        return KinematicTangent(trial, ret, eqps, self.backstress, self.law, self.kinematic,
-                                self.mu, depth)
+        return ReturnTangent(trial, ret, eqps, self.law, self.mu, depth,
+                             kinematic=self.kinematic, backstress=self.backstress)
 
     # ------------------------------------------------------------------ driver
     def run(self, start: int = 0) -> Iterator[State]:
