@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from sacflow.compare.material import history_dataset
 from sacflow.config.hardening_laws import hardening_from_schema, kinematic_from_schema
 from sacflow.mechanics.hardening import KinematicLaw, PerfectPlasticity, SwiftHardening
 from sacflow.mechanics.material_point import STRESS_TOL, cycle_path, material_cycles
@@ -39,8 +40,9 @@ def af(recall: float = GAMMA, modulus: float = C) -> dict:
 
 def cycle(hardening: dict, *args, **kwargs):
     """``material_cycles`` of a schema hardening law, built as the material-point stage does."""
-    return material_cycles(hardening_from_schema(hardening), *args,
-                           kinematic=kinematic_from_schema(hardening), **kwargs)
+    history = material_cycles(hardening_from_schema(hardening), *args,
+                              kinematic=kinematic_from_schema(hardening), **kwargs)
+    return history_dataset(history)
 
 
 def uniaxial_backstress(ds) -> np.ndarray:

@@ -10,6 +10,7 @@ loops, the plastic strain and the backstress against the increments.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import xarray as xr
@@ -17,9 +18,14 @@ from matplotlib.figure import Figure
 
 from sacflow.compare.core import CompareError
 from sacflow.config.hardening_laws import hardening_from_schema, kinematic_from_schema
-from sacflow.mechanics.material_point import MaterialPointError, material_cycles
+from sacflow.mechanics.material_point import (
+    MaterialHistory,
+    MaterialPointError,
+    material_cycles,
+)
+from sacflow.mechanics.stress_measures import COMPONENTS
 
-__all__ = ["material_point", "plot_material_point"]
+__all__ = ["history_dataset", "material_point", "plot_material_point"]
 
 #: Defaults of the stage's options.
 DEFAULT_CYCLES, DEFAULT_INCREMENTS = 3, 40
@@ -58,13 +64,15 @@ def material_point(case_file: Path, amplitude: float | None = None,
     cycles = DEFAULT_CYCLES if cycles is None else cycles
     increments = DEFAULT_INCREMENTS if increments is None else increments
     try:
-        result = material_cycles(hardening_from_schema(body.hardening), body.E, body.nu,
-                                 amplitude, cycles=cycles, increments=increments,
-                                 mean=mean or 0.0, mode=mode or "uniaxial",
-                                 control=control or "strain",
-                                 kinematic=kinematic_from_schema(body.hardening))
+        history = material_cycles(hardening_from_schema(body.hardening), body.E, body.nu,
+                                  amplitude, cycles=cycles, increments=increments,
+                                  mean=mean or 0.0, mode=mode or "uniaxial",
+                                  control=control or "strain",
+                                  kinematic=kinematic_from_schema(body.hardening))
     except (ValueError, MaterialPointError) as exc:
         raise CompareError(f"material-point: {exc}") from None
+    result = history_dataset(history, amplitude=amplitude, mean=mean or 0.0, cycles=cycles,
+                             increments=increments, E=body.E, nu=body.nu)
     result.attrs.update(stage="material-point", case=str(data.get("name", Path(case_file).stem)),
                         source=str(case_file),
                         hardening=body.hardening.model_dump_json())
@@ -73,6 +81,31 @@ def material_point(case_file: Path, amplitude: float | None = None,
     result["max_driven_stress"] = xr.DataArray(
         float(np.abs(result["driven_stress"]).max()), attrs={"units": "Pa"})
     return result
+
+
+def history_dataset(history: MaterialHistory, **attrs: float) -> xr.Dataset:
+    """Return the history of :func:`~sacflow.mechanics.material_point.material_cycles` as data.
+
+    Over ``increment`` (0 = the initial state): ``strain``, ``stress``, ``plastic_strain``,
+    ``backstress`` (increment, component), ``equivalent_plastic_strain``, and the driven
+    component's ``driven_strain`` and ``driven_stress``; ``attrs`` (the path's amplitude, mean,
+    cycles, increments, E, ν) are kept as attributes.
+    """
+    tensors = {"strain": history.strain, "stress": history.stress,
+               "plastic_strain": history.plastic_strain, "backstress": history.backstress}
+    data: dict[str, tuple[Any, ...]] = {name: (("increment", "component"), value,
+                   {"units": "Pa" if "stress" in name else "1"})
+            for name, value in tensors.items()}
+    data["equivalent_plastic_strain"] = ("increment", history.equivalent_plastic_strain,
+                                         {"units": "1"})
+    data["driven_strain"] = ("increment", history.strain[:, history.driven], {"units": "1"})
+    data["driven_stress"] = ("increment", history.stress[:, history.driven], {"units": "Pa"})
+    n = history.strain.shape[0]
+    ds = xr.Dataset(data, coords={"increment": np.arange(n), "component": list(COMPONENTS)})
+    ds.attrs.update(attrs, mode=history.mode, control=history.control,
+                    driven_component=COMPONENTS[history.driven], Conventions="CF-1.10",
+                    title=f"material point, {history.mode} {history.control}-controlled cycles")
+    return ds
 
 
 def plot_material_point(result: xr.Dataset) -> Figure:

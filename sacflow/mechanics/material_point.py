@@ -23,16 +23,14 @@ the initial yield stress).
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any
+from dataclasses import dataclass
 
 import numpy as np
-import xarray as xr
 
 from sacflow.mechanics.hardening import HardeningLaw, KinematicLaw
 from sacflow.mechanics.return_mapping import return_map
-from sacflow.mechanics.stress_measures import COMPONENTS
 
-__all__ = ["MaterialPointError", "cycle_path", "material_cycles"]
+__all__ = ["MaterialHistory", "MaterialPointError", "cycle_path", "material_cycles"]
 
 #: Newton tolerance on the held stress components, relative to the initial yield stress.
 STRESS_TOL = 1e-10
@@ -46,6 +44,26 @@ MODES = {"uniaxial": (0, (1, 2)), "shear": (3, (0, 1, 2))}
 
 class MaterialPointError(RuntimeError):
     """The held stress components could not be brought to their targets."""
+
+
+@dataclass(frozen=True)
+class MaterialHistory:
+    """History of a material point over its increments (row 0 = the initial state).
+
+    ``strain``, ``stress``, ``plastic_strain`` and ``backstress`` are (increments + 1, 6)
+    tensors in the order of :data:`~sacflow.mechanics.stress_measures.COMPONENTS`,
+    ``equivalent_plastic_strain`` is (increments + 1,); ``driven`` is the index of the driven
+    component, ``mode`` and ``control`` as given to :func:`material_cycles`.
+    """
+
+    strain: np.ndarray
+    stress: np.ndarray
+    plastic_strain: np.ndarray
+    backstress: np.ndarray
+    equivalent_plastic_strain: np.ndarray
+    driven: int
+    mode: str
+    control: str
 
 
 def cycle_path(amplitude: float, cycles: int, increments: int, mean: float = 0.0) -> np.ndarray:
@@ -73,7 +91,7 @@ Response = tuple[np.ndarray, np.ndarray, float, np.ndarray]
 def material_cycles(law: HardeningLaw, E: float, nu: float, amplitude: float, cycles: int = 2,
                     increments: int = 50, mean: float = 0.0, mode: str = "uniaxial",
                     control: str = "strain", kinematic: KinematicLaw | None = None
-                    ) -> xr.Dataset:
+                    ) -> MaterialHistory:
     """Drive one material point through a cyclic path (module docstring) and return its history.
 
     Parameters
@@ -93,10 +111,9 @@ def material_cycles(law: HardeningLaw, E: float, nu: float, amplitude: float, cy
 
     Returns
     -------
-    xarray.Dataset
-        Over ``increment`` (0 = the initial state): ``strain``, ``stress``, ``plastic_strain``,
-        ``backstress`` (increment, component), ``equivalent_plastic_strain``, and the driven
-        component's ``driven_strain`` and ``driven_stress``.
+    MaterialHistory
+        Strain, stress, plastic strain, backstress and equivalent plastic strain at every
+        increment (0 = the initial state).
 
     Raises
     ------
@@ -139,18 +156,8 @@ def material_cycles(law: HardeningLaw, E: float, nu: float, amplitude: float, cy
         hist["strain"][i], hist["stress"][i] = strain, stress
         hist["plastic_strain"][i], hist["backstress"][i] = state[0], x_new
         equivalent_plastic_strain[i] = state[1]
-    data: dict[str, tuple[Any, ...]] = {
-        name: (("increment", "component"), value, {"units": "Pa" if "stress" in name else "1"})
-        for name, value in hist.items()}
-    data["equivalent_plastic_strain"] = ("increment", equivalent_plastic_strain, {"units": "1"})
-    data["driven_strain"] = ("increment", hist["strain"][:, driven], {"units": "1"})
-    data["driven_stress"] = ("increment", hist["stress"][:, driven], {"units": "Pa"})
-    ds = xr.Dataset(data, coords={"increment": np.arange(n), "component": list(COMPONENTS)})
-    ds.attrs.update(mode=mode, control=control, amplitude=amplitude, mean=mean, cycles=cycles,
-                    increments=increments, E=E, nu=nu,
-                    driven_component=COMPONENTS[driven], Conventions="CF-1.10",
-                    title=f"material point, {mode} {control}-controlled cycles")
-    return ds
+    return MaterialHistory(hist["strain"], hist["stress"], hist["plastic_strain"],
+                           hist["backstress"], equivalent_plastic_strain, driven, mode, control)
 
 
 def _solve(respond: Callable[[np.ndarray], Response], strain: np.ndarray, unknown: list[int],
