@@ -1,8 +1,8 @@
 """Materials of body 1: hardening laws, kinematic hardening, initial residual stress and hardening.
 
-The hardening-law models (``body.hardening``, chosen by ``law``) are the one place where a
-law's rules live: :func:`sacflow.mechanics.plasticity.hardening_from_schema` builds the runtime
-law from what they accept. The initial profiles (``body.initial_residual_stress``,
+The hardening-law models (``body.hardening``, chosen by ``law``) say what a user may write;
+:func:`sacflow.config.hardening_laws.hardening_from_schema` builds the runtime law of
+:mod:`sacflow.mechanics.hardening` from what they accept. The initial profiles (``body.initial_residual_stress``,
 ``body.initial_hardening``) describe the body before any contact, varying with depth only.
 """
 
@@ -157,10 +157,10 @@ class KinematicHardening(Model):
 class _Plastic(Model):
     """Base of the plastic laws: the rules every law shares.
 
-    The hardening-law models are the one place where a law's rules live: whatever they accept,
-    :func:`sacflow.mechanics.plasticity.hardening_from_schema` builds and the radial return runs
-    with (σ_Y finite, positive and non-decreasing in εp). The runtime classes of
-    :mod:`sacflow.mechanics.plasticity` validate their arguments through these models.
+    Whatever these models accept, :func:`sacflow.config.hardening_laws.hardening_from_schema`
+    builds and the return mapping runs with (σ_Y finite, positive and non-decreasing in εp).
+    The runtime laws of :mod:`sacflow.mechanics.hardening` check the same rules themselves, in
+    plain code, so that the numerical layers need no configuration.
     """
 
     depth_profile: DepthProfile | None = Field(
