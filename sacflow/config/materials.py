@@ -2,8 +2,9 @@
 
 The hardening-law models (``body.hardening``, chosen by ``law``) say what a user may write;
 :func:`sacflow.config.hardening_laws.hardening_from_schema` builds the runtime law of
-:mod:`sacflow.mechanics.hardening` from what they accept. The initial profiles (``body.initial_residual_stress``,
-``body.initial_hardening``) describe the body before any contact, varying with depth only.
+:mod:`sacflow.mechanics.hardening` from what they accept. The initial profiles
+(``body.initial_residual_stress``, ``body.initial_hardening``) describe the body before any
+contact, varying with depth only.
 """
 
 from __future__ import annotations
