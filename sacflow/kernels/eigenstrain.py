@@ -74,14 +74,10 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 import scipy.fft
 
+from sacflow.kernels.convolution import padded_length
 from sacflow.kernels.cuboid import PARITY
 from sacflow.kernels.cuboid_lattice import CuboidLattice
-from sacflow.kernels.fft import (
-    RealFFT,
-    RealToReal,
-    default_threads,
-    padded_length,
-)
+from sacflow.kernels.fft import RealFFT, RealToReal, default_threads
 from sacflow.kernels.folded_fft import folded_spectra
 from sacflow.kernels.residual_displacement import cuboid_surface_displacement
 from sacflow.kernels.surface import rectangle_stress_grid

@@ -252,7 +252,7 @@ def surface_load_stress_coefficients(
 ):
     """Influence coefficients of a cell's unit pressure on the stress at a set of depths.
 
-    For :class:`sacflow.kernels.fft.Convolution`: ``coefficients(d1, d2)`` at integer cell
+    For :class:`sacflow.kernels.convolution.Convolution`: ``coefficients(d1, d2)`` at integer cell
     offsets (sparse grids) returns ``(6 · len(depths), 1, *shape)``, layer-major, six
     components per layer: Love's rectangle (:func:`sacflow.kernels.surface.rectangle_stress_grid`)
     and, with a ``traction`` (t1, t2) per unit pressure, its shear traction's stresses

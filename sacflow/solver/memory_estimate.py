@@ -5,8 +5,9 @@ and before ``sacflow run`` allocates its operators, not end in numpy's ``_ArrayM
 half-way through the set-up. :func:`estimate_memory` derives the peak resident memory of a run
 from the shapes of the arrays the solver allocates (:class:`sacflow.solver.simulation.Simulation`):
 
-* the contact compliance (DC-FFT on the contact window, :class:`~sacflow.kernels.fft.Convolution`)
-  and the contact solver's window arrays (:mod:`sacflow.mechanics.contact`);
+* the contact compliance (DC-FFT on the contact window,
+  :class:`~sacflow.kernels.convolution.Convolution`) and the contact solver's window arrays
+  (:mod:`sacflow.mechanics.contact`);
 * the pressure → stress operator on the body grid: ``6 nz`` complex kernel spectra on the
   zero-padded body grid, and while it is built the kernel coefficients on that grid;
 * for a plastic body, the eigenstrain operator (:class:`~sacflow.kernels.eigenstrain.
@@ -162,7 +163,7 @@ def _real_fft_bytes(batch: int, n1: int, n2: int) -> int:
 
 def _contact(grid: BodyGrid) -> MemoryItem:
     """Compliance spectra and buffers on the contact window, the contact solver's arrays."""
-    from sacflow.kernels.fft import padded_length
+    from sacflow.kernels.convolution import padded_length
 
     nx, ny = grid.window
     p1, p2 = padded_length(nx, nx), padded_length(ny, ny)
@@ -174,7 +175,7 @@ def _contact(grid: BodyGrid) -> MemoryItem:
 
 def _pressure_stress(grid: BodyGrid) -> tuple[MemoryItem, MemoryItem]:
     """Size the pressure → stress operator (spectra, buffers) and the coefficients of its set-up."""
-    from sacflow.kernels.fft import padded_length
+    from sacflow.kernels.convolution import padded_length
 
     n1, n2 = grid.body
     p1, p2 = padded_length(n1, n1), padded_length(n2, n2)
