@@ -187,7 +187,7 @@ def _phi2(sums, i, j):
     return L[3 - i - j]
 
 
-def _stress_from_sums(sums, inside, sources, nu, mu):
+def stress_from_sums(sums, inside, sources, nu, mu):
     """Stress columns ``(…, 6, len(sources))`` for unit eigenstrains from the corner sums."""
     lam = _lame(nu, mu)
     k = 1.0 / (8.0 * math.pi * (1.0 - nu))
@@ -262,7 +262,7 @@ def _blocked(xs, shape, half, sources, nu, mu):
             inside = (np.abs(y0) < h[0]) & (np.abs(y1) < h[1]) & (np.abs(y2) < h[2])
             with np.errstate(divide="ignore", invalid="ignore"):
                 sums = _corner_sums(y0, y1, y2, h)
-                out[sl] = _stress_from_sums(sums, inside, sources, nu, mu)
+                out[sl] = stress_from_sums(sums, inside, sources, nu, mu)
     return out
 
 
@@ -273,7 +273,7 @@ def _odd_count(c: int, axis: int) -> int:
 
 def _evaluate(x1, x2, x3, half, sources, nu, mu):
     """Stress columns ``(…, 6, len(sources))``; uses reflection symmetry on separable grids."""
-    half = _checked(half, nu)
+    half = checked_half_sizes(half, nu)
     xs, shape = _aligned((x1, x2, x3))
     axes = [[d for d, n in enumerate(a.shape) if n > 1] for a in xs]
     varying = [a[0] for a in axes if a]
@@ -298,7 +298,7 @@ def _evaluate(x1, x2, x3, half, sources, nu, mu):
     return out
 
 
-def _checked(half, nu) -> tuple[float, float, float]:
+def checked_half_sizes(half, nu) -> tuple[float, float, float]:
     """Return the half sizes as floats after checking them and the Poisson ratio."""
     half = tuple(float(h) for h in half)
     if any(not (h > 0.0 and math.isfinite(h)) for h in half):

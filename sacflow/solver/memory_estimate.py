@@ -12,8 +12,8 @@ from the shapes of the arrays the solver allocates (:class:`sacflow.solver.simul
   zero-padded body grid, and while it is built the kernel coefficients on that grid;
 * for a plastic body, the eigenstrain operator (:class:`~sacflow.kernels.eigenstrain.
   HalfSpaceEigenstrain`): its persistent spectra and buffers
-  (:func:`~sacflow.kernels.eigenstrain.operator_bytes`) and the transient of its set-up
-  (:func:`~sacflow.kernels.eigenstrain.setup_bytes`);
+  (:func:`~sacflow.kernels.eigenstrain_memory.operator_bytes`) and the transient of its set-up
+  (:func:`~sacflow.kernels.eigenstrain_memory.setup_bytes`);
 * the solver state (plastic strain, residual stress), the working arrays of one increment's
   fixed point, the Anderson history (:mod:`sacflow.solver.anderson`) and the GMRES basis of the
   Newton–Krylov fallback;
@@ -195,12 +195,12 @@ def _eigenstrain(grid: BodyGrid) -> tuple[MemoryItem, MemoryItem]:
     Persistent (:class:`~sacflow.kernels.eigenstrain.HalfSpaceEigenstrain`), per depth
     frequency: the 21 pair spectra and the 18 surface and correction spectra, all real and on
     half the lateral rows, and the one transform buffer, (6, L1, L2) real and its spectrum
-    (:func:`~sacflow.kernels.eigenstrain.operator_bytes`).
+    (:func:`~sacflow.kernels.eigenstrain_memory.operator_bytes`).
     """
-    from sacflow.kernels.eigenstrain import _padded, operator_bytes, setup_bytes
+    from sacflow.kernels.eigenstrain_memory import operator_bytes, padded_lengths, setup_bytes
 
     shape = (*grid.body, grid.nz)
-    l1, l2, n = _padded(shape)
+    l1, l2, n = padded_lengths(shape)
     operator = MemoryItem(
         "eigenstrain operator", operator_bytes(shape),
         f"residual stress/displacement spectra of {shape[0]} × {shape[1]} × {shape[2]} cuboids "
