@@ -64,8 +64,10 @@ reflection rule ``A_cd(R_i x) = s_c s_d A_cd(x)``, ``s = (−1)^(times i occurs 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 __all__ = [
     "COMPONENTS",
@@ -85,6 +87,9 @@ COMPONENTS: tuple[tuple[int, int], ...] = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2
 PARITY = np.array([[(-1.0) ** pair.count(axis) for pair in COMPONENTS] for axis in range(3)])
 
 _MAX_POINTS = 1 << 17  # points per block in the corner sums (bounded temporaries)
+#: The corner sums ``(T, L, Q, M, N)`` of :func:`_corner_sums` (M keyed by an axis pair).
+CornerSums = tuple[list[np.ndarray], list[np.ndarray], list[np.ndarray],
+                   dict[tuple[int, int], np.ndarray], list[np.ndarray]]
 
 
 def _lame(nu: float, mu: float) -> float:
@@ -121,7 +126,8 @@ def _unit_tensor(source: int) -> np.ndarray:
 # ---------------------------------------------------------------------------------------------
 
 
-def _corner_sums(y0, y1, y2, h):
+def _corner_sums(y0: np.ndarray, y1: np.ndarray, y2: np.ndarray, h: Sequence[float]
+                 ) -> CornerSums:
     """Compute the 8-corner sums for field points ``y`` (dimensionless, broadcastable), box ``h``.
 
     Returns ``T[i] = Σ s atan(y_j y_k / (y_i R))``, ``L[k] = Σ s asinh(y_k / ρ_ij)``,
@@ -162,7 +168,7 @@ def _corner_sums(y0, y1, y2, h):
     return T, L, Q, M, N
 
 
-def _psi4(sums, idx):
+def _psi4(sums: CornerSums, idx: tuple[int, ...]) -> np.ndarray:
     """``ψ_,ijkl`` (dimensionless) from the corner sums, for the index multiset ``idx``."""
     T, L, Q, M, N = sums
     counts = [idx.count(a) for a in range(3)]
@@ -179,7 +185,7 @@ def _psi4(sums, idx):
     return N[counts.index(2)]  # ψ,iijk
 
 
-def _phi2(sums, i, j):
+def _phi2(sums: CornerSums, i: int, j: int) -> np.ndarray:
     """``φ_,ij`` (dimensionless) from the corner sums."""
     T, L = sums[0], sums[1]
     if i == j:
@@ -187,13 +193,18 @@ def _phi2(sums, i, j):
     return L[3 - i - j]
 
 
-def stress_from_sums(sums, inside, sources, nu, mu):
-    """Stress columns ``(…, 6, len(sources))`` for unit eigenstrains from the corner sums."""
+def stress_from_sums(sums: CornerSums, inside: np.ndarray | float, sources: Sequence[int],
+                     nu: float, mu: float) -> np.ndarray:
+    """Stress columns ``(…, 6, len(sources))`` for unit eigenstrains from the corner sums.
+
+    ``inside``: True (or 1.0) at the points inside the cuboid, where the eigenstrain's own
+    stress-free part is taken off.
+    """
     lam = _lame(nu, mu)
     k = 1.0 / (8.0 * math.pi * (1.0 - nu))
     phi = {(i, j): _phi2(sums, i, j) for i in range(3) for j in range(i, 3)}
 
-    def ph(i, j):
+    def ph(i: int, j: int) -> np.ndarray:
         return phi[(min(i, j), max(i, j))]
 
     shape = sums[0][0].shape
@@ -203,7 +214,7 @@ def stress_from_sums(sums, inside, sources, nu, mu):
         e_star = _unit_tensor(d)
         theta = float(np.trace(e_star))
         weight = 1.0 if m == n else 2.0  # ψ,ijkl ε*_kl sums the pair (mn), (nm)
-        strain = {}
+        strain: dict[tuple[int, int], np.ndarray] = {}
         for i, j in COMPONENTS:
             val = weight * _psi4(sums, (i, j, m, n))
             if theta:
@@ -229,16 +240,17 @@ def stress_from_sums(sums, inside, sources, nu, mu):
 # ---------------------------------------------------------------------------------------------
 
 
-def _aligned(xs):
+def _aligned(xs: Sequence[ArrayLike]) -> tuple[list[np.ndarray], tuple[int, ...]]:
     """Arrays broadcast-aligned to a common ndim (at least 1) and the broadcast shape."""
-    xs = [np.asarray(a, dtype=float) for a in xs]
-    shape = np.broadcast_shapes(*(a.shape for a in xs))
+    arrays = [np.asarray(a, dtype=float) for a in xs]
+    shape = np.broadcast_shapes(*(a.shape for a in arrays))
     nd = max(1, len(shape))
-    xs = [a.reshape((1,) * (nd - a.ndim) + a.shape) for a in xs]
-    return xs, np.broadcast_shapes(*(a.shape for a in xs))
+    arrays = [a.reshape((1,) * (nd - a.ndim) + a.shape) for a in arrays]
+    return arrays, np.broadcast_shapes(*(a.shape for a in arrays))
 
 
-def _blocked(xs, shape, half, sources, nu, mu):
+def _blocked(xs: Sequence[np.ndarray], shape: tuple[int, ...], half: Sequence[float],
+             sources: Sequence[int], nu: float, mu: float) -> np.ndarray:
     """Evaluate on broadcast-aligned ``xs`` in blocks of at most ~``_MAX_POINTS`` points."""
     out = np.empty((*shape, 6, len(sources)))
     scale = max(half)
@@ -271,15 +283,16 @@ def _odd_count(c: int, axis: int) -> int:
     return COMPONENTS[c].count(axis)
 
 
-def _evaluate(x1, x2, x3, half, sources, nu, mu):
+def _evaluate(x1: ArrayLike, x2: ArrayLike, x3: ArrayLike, half: Sequence[float],
+              sources: Sequence[int], nu: float, mu: float) -> np.ndarray:
     """Stress columns ``(…, 6, len(sources))``; uses reflection symmetry on separable grids."""
-    half = checked_half_sizes(half, nu)
+    halves = checked_half_sizes(half, nu)
     xs, shape = _aligned((x1, x2, x3))
     axes = [[d for d, n in enumerate(a.shape) if n > 1] for a in xs]
     varying = [a[0] for a in axes if a]
     separable = all(len(a) <= 1 for a in axes) and len(varying) == len(set(varying))
     if not separable:
-        return _blocked(xs, shape, half, sources, nu, mu)
+        return _blocked(xs, shape, halves, sources, nu, mu)
     # A(R_i x) = S_i A(x) S_i for the reflection R_i of axis i: evaluate on |x_i| only.
     reduced, inverse, signs = [], [], []
     for a in xs:
@@ -289,26 +302,27 @@ def _evaluate(x1, x2, x3, half, sources, nu, mu):
         signs.append(np.where(a < 0.0, -1.0, 1.0))
     red_shape = np.broadcast_shapes(*(r.shape for r in reduced))
     if math.prod(red_shape) > 0.7 * math.prod(shape):
-        return _blocked(xs, shape, half, sources, nu, mu)
-    out = _blocked(reduced, red_shape, half, sources, nu, mu)
-    for a, inv in zip(axes, inverse, strict=True):
-        if a:
-            out = np.take(out, inv, axis=a[0])
+        return _blocked(xs, shape, halves, sources, nu, mu)
+    out = _blocked(reduced, red_shape, halves, sources, nu, mu)
+    for varied, inv in zip(axes, inverse, strict=True):
+        if varied:
+            out = np.take(out, inv, axis=varied[0])
     _mirror_signs(out, sources, signs)
     return out
 
 
-def checked_half_sizes(half, nu) -> tuple[float, float, float]:
+def checked_half_sizes(half: Sequence[float], nu: float) -> tuple[float, float, float]:
     """Return the half sizes as floats after checking them and the Poisson ratio."""
-    half = tuple(float(h) for h in half)
-    if any(not (h > 0.0 and math.isfinite(h)) for h in half):
-        raise ValueError(f"cuboid half sizes must be positive and finite, got {half}")
+    halves = tuple(float(h) for h in half)
+    if any(not (h > 0.0 and math.isfinite(h)) for h in halves):
+        raise ValueError(f"cuboid half sizes must be positive and finite, got {halves}")
     if not (-1.0 < nu < 0.5):
         raise ValueError(f"Poisson ratio must lie in (-1, 0.5), got {nu}")
-    return half
+    h1, h2, h3 = halves
+    return h1, h2, h3
 
 
-def _mirror_signs(out: np.ndarray, sources, signs: list[np.ndarray]) -> None:
+def _mirror_signs(out: np.ndarray, sources: Sequence[int], signs: list[np.ndarray]) -> None:
     """Apply in place the sign ``S_i A S_i`` of each reflected axis to the mirrored columns.
 
     Entry ``(c, d)`` changes sign under the reflection of an axis when that axis appears an odd
@@ -324,7 +338,8 @@ def _mirror_signs(out: np.ndarray, sources, signs: list[np.ndarray]) -> None:
                 out[..., c, col] *= factor
 
 
-def cuboid_stress(x1, x2, x3, half1, half2, half3, nu, mu) -> np.ndarray:
+def cuboid_stress(x1: ArrayLike, x2: ArrayLike, x3: ArrayLike, half1: float, half2: float,
+                  half3: float, nu: float, mu: float) -> np.ndarray:
     """Influence matrix of a cuboid of uniform eigenstrain in an infinite elastic space.
 
     Chiu, J. Appl. Mech. 44 (1977) 587, doi:10.1115/1.3424384; Mura (1987) §11.  See the
@@ -356,7 +371,9 @@ def cuboid_stress(x1, x2, x3, half1, half2, half3, nu, mu) -> np.ndarray:
     return _evaluate(x1, x2, x3, (half1, half2, half3), tuple(range(6)), nu, mu)
 
 
-def cuboid_stress_component(x1, x2, x3, half1, half2, half3, nu, mu, source: int) -> np.ndarray:
+def cuboid_stress_component(x1: ArrayLike, x2: ArrayLike, x3: ArrayLike, half1: float,
+                            half2: float, half3: float, nu: float, mu: float,
+                            source: int) -> np.ndarray:
     """Stress of a cuboid of unit eigenstrain component ``source`` in an infinite space.
 
     Column ``source`` of :func:`cuboid_stress` (same parameters), computed without the other
@@ -384,7 +401,8 @@ def cuboid_stress_component(x1, x2, x3, half1, half2, half3, nu, mu, source: int
 # ---------------------------------------------------------------------------------------------
 
 
-def kelvin_displacement_gradient(r1, r2, r3, nu, mu) -> np.ndarray:
+def kelvin_displacement_gradient(r1: ArrayLike, r2: ArrayLike, r3: ArrayLike, nu: float,
+                                 mu: float) -> np.ndarray:
     r"""Gradient of Kelvin's point-force solution in an infinite isotropic space.
 
     ``u_i(x) = G_ij(x − x') F_j`` with
@@ -420,10 +438,12 @@ def kelvin_displacement_gradient(r1, r2, r3, nu, mu) -> np.ndarray:
         + eye[None, :, :] * ri
         - 3.0 * ri * rj * rk / rr**2
     )
-    return g / (16.0 * math.pi * mu * (1.0 - nu) * rr**3)
+    gradient: np.ndarray = g / (16.0 * math.pi * mu * (1.0 - nu) * rr**3)
+    return gradient
 
 
-def eigenstrain_stress_by_quadrature(x, half, nu, mu, source, order, panels=1) -> np.ndarray:
+def eigenstrain_stress_by_quadrature(x: ArrayLike, half: Sequence[float], nu: float, mu: float,
+                                     source: int, order: int, panels: int = 1) -> np.ndarray:
     r"""Slow reference: stress of a cuboid eigenstrain by quadrature of Kelvin's solution.
 
     Independent of the potentials used by :func:`cuboid_stress`: a uniform eigenstrain ``ε*`` in
@@ -459,7 +479,7 @@ def eigenstrain_stress_by_quadrature(x, half, nu, mu, source, order, panels=1) -
         Stress components (11, 22, 33, 12, 13, 23) [Pa].
     """
     x = np.asarray(x, dtype=float)
-    half = np.asarray(half, dtype=float)
+    halves = np.asarray(half, dtype=float)
     lam = _lame(nu, mu)
     e_star = _unit_tensor(source)
     s = lam * np.trace(e_star) * np.eye(3) + 2.0 * mu * e_star
@@ -472,11 +492,11 @@ def eigenstrain_stress_by_quadrature(x, half, nu, mu, source, order, panels=1) -
     grad = np.zeros((pts.shape[0], 3, 3))
     for axis in range(3):
         b, c = (axis + 1) % 3, (axis + 2) % 3
-        tb, tc = np.meshgrid(t_all * half[b], t_all * half[c], indexing="ij")
-        area = np.outer(w_all, w_all).ravel() * half[b] * half[c]
+        tb, tc = np.meshgrid(t_all * halves[b], t_all * halves[c], indexing="ij")
+        area = np.outer(w_all, w_all).ravel() * halves[b] * halves[c]
         for side in (-1.0, 1.0):
             nodes = np.zeros((tb.size, 3))
-            nodes[:, axis] = side * half[axis]
+            nodes[:, axis] = side * halves[axis]
             nodes[:, b], nodes[:, c] = tb.ravel(), tc.ravel()
             traction = s[:, axis] * side  # (C:ε*)_jl n_l
             for start in range(0, pts.shape[0], 16):
@@ -484,7 +504,7 @@ def eigenstrain_stress_by_quadrature(x, half, nu, mu, source, order, panels=1) -
                 g = kelvin_displacement_gradient(r[..., 0], r[..., 1], r[..., 2], nu, mu)
                 grad[start : start + 16] += np.einsum("pnijk,j,n->pik", g, traction, area)
     strain = 0.5 * (grad + np.swapaxes(grad, -1, -2))
-    inside = np.all(np.abs(pts) < half, axis=-1)
+    inside = np.all(np.abs(pts) < halves, axis=-1)
     sig = 2.0 * mu * strain + lam * np.trace(strain, axis1=-2, axis2=-1)[:, None, None] * np.eye(3)
     sig = sig - inside[:, None, None] * s
     out = np.stack([sig[:, i, j] for i, j in COMPONENTS], axis=-1)

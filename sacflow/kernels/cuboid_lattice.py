@@ -161,7 +161,8 @@ class CuboidLattice:
         x3s = float(x3) / self.scale
         sums = self._sums(x3s)
         a, b = sums.shape[1:]
-        out = (sums.reshape(_SUMS, a * b).T @ self._coefficients[:, index]).reshape(a, b, -1)
+        out: np.ndarray = (sums.reshape(_SUMS, a * b).T
+                           @ self._coefficients[:, index]).reshape(a, b, -1)
         if abs(x3s) < self.h[2]:
             inside = ((self._axes[0].folded < self.h[0])[:, None]
                       & (self._axes[1].folded < self.h[1])[None, :])
@@ -187,7 +188,8 @@ class CuboidLattice:
                out: np.ndarray | None = None) -> np.ndarray:
         """Mirror folded columns (from :meth:`folded_plane`) onto the grid ``x1 × x2``."""
         full = self._axes[1].unfold(self._axes[0].unfold(folded, 0), 1)
-        return np.multiply(full, signs, out=out)
+        unfolded: np.ndarray = np.multiply(full, signs, out=out)
+        return unfolded
 
     def plane(self, x3: float, columns: Sequence[tuple[int, int]]) -> np.ndarray:
         """Columns ``(c, d)`` at the grid ``x1 × x2`` and depth offset ``x3`` [m].

@@ -115,6 +115,10 @@ from numpy.typing import ArrayLike, NDArray
 
 from sacflow.kernels.surface import boussinesq_stress
 
+#: Float and index arrays of the corner lattices.
+FloatArray = NDArray[np.float64]
+IndexArray = NDArray[np.intp]
+
 __all__ = [
     "SHEAR_WEIGHTS",
     "cuboid_surface_displacement",
@@ -134,7 +138,7 @@ _SEPARABLE_MIN = 512  # below this many outputs the plain corner loop is used
 # ---------------------------------------------------------------------------------------------
 
 
-def _ln_sum(a: NDArray[np.float64], r: NDArray[np.float64], rest2: NDArray[np.float64]):
+def _ln_sum(a: FloatArray, r: FloatArray, rest2: FloatArray) -> FloatArray:
     """ln(a + r) with r = sqrt(a² + rest2) >= |a|, without cancellation for a < 0.
 
     Where the argument is 0 (only when its coefficient in the corner functions is 0 too)
@@ -142,10 +146,12 @@ def _ln_sum(a: NDArray[np.float64], r: NDArray[np.float64], rest2: NDArray[np.fl
     """
     with np.errstate(divide="ignore", invalid="ignore"):
         arg = np.where(a >= 0.0, a + r, rest2 / (r - a))
-    return np.log(np.where(arg > 0.0, arg, 1.0))
+    logarithm: FloatArray = np.log(np.where(arg > 0.0, arg, 1.0))
+    return logarithm
 
 
-def _corner_functions(X, Y, Z, nu: float) -> NDArray[np.float64]:
+def _corner_functions(X: FloatArray, Y: FloatArray, Z: FloatArray | float,
+                      nu: float) -> FloatArray:
     """Triple antiderivatives of the six columns of K at the corners (X, Y, Z), Z >= 0.
 
     Returns an array (..., 6) of the broadcast shape of X, Y, Z (module docstring table).
@@ -181,7 +187,8 @@ def _corner_functions(X, Y, Z, nu: float) -> NDArray[np.float64]:
 # ---------------------------------------------------------------------------------------------
 
 
-def _corner_loop(x1, x2, c3, h1, h2, h3, nu: float, shape) -> NDArray[np.float64]:
+def _corner_loop(x1: FloatArray, x2: FloatArray, c3: FloatArray, h1: FloatArray, h2: FloatArray,
+                 h3: FloatArray, nu: float, shape: tuple[int, ...]) -> FloatArray:
     """Plain 8-corner sums, point by point, in blocks of at most ``_BLOCK`` points."""
     flat = [np.broadcast_to(a, shape).ravel() for a in (x1, x2, c3, h1, h2, h3)]
     n = flat[0].size
@@ -211,7 +218,8 @@ def _varying_axes(nd: int, *shapes: tuple[int, ...]) -> tuple[int, ...]:
     return tuple(i for i, n in enumerate(b) if n > 1)
 
 
-def _group(a, b, axes, shape) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def _group(a: FloatArray, b: FloatArray, axes: tuple[int, ...], shape: tuple[int, ...]
+           ) -> tuple[FloatArray, FloatArray]:
     """Values of (a, b) along their own axes, flattened in C order."""
     nd = len(shape)
     idx = tuple(slice(None) if i in axes else 0 for i in range(nd))
@@ -221,7 +229,7 @@ def _group(a, b, axes, shape) -> tuple[NDArray[np.float64], NDArray[np.float64]]
     return np.ravel(av), np.ravel(bv)
 
 
-def _merged_unique(lo, hi):
+def _merged_unique(lo: FloatArray, hi: FloatArray) -> tuple[FloatArray, IndexArray, IndexArray]:
     """Distinct values of lo ∪ hi (values within a few ulp merged) and the indices of lo, hi."""
     v = np.concatenate([lo, hi])
     order = np.argsort(v, kind="stable")
@@ -235,7 +243,8 @@ def _merged_unique(lo, hi):
     return sv[new], inv[: lo.size], inv[lo.size :]
 
 
-def _fold(a, b):
+def _fold(a: FloatArray, b: FloatArray
+          ) -> tuple[FloatArray, FloatArray, IndexArray, NDArray[np.bool_]]:
     """Distinct (|a|, b) pairs, the index of each entry among them, and whether a < 0.
 
     K is even or odd in x1 (and in x2), so entries at −a reuse the value at +a.
@@ -244,7 +253,8 @@ def _fold(a, b):
     return pairs[:, 0], pairs[:, 1], inv.ravel(), a < 0.0
 
 
-def _lattice_plane(X, Y, z: float, nu: float, buf) -> NDArray[np.float64]:
+def _lattice_plane(X: FloatArray, Y: FloatArray, z: float, nu: float, buf: FloatArray
+                   ) -> FloatArray:
     """Corner functions on the lattice X × Y at depth z, in row blocks, into ``buf``."""
     rows = max(1, _BLOCK // max(1, Y.size))
     for start in range(0, X.size, rows):
@@ -253,7 +263,9 @@ def _lattice_plane(X, Y, z: float, nu: float, buf) -> NDArray[np.float64]:
     return buf
 
 
-def _separable(x1, x2, c3, h1, h2, h3, nu: float, shape, axes) -> NDArray[np.float64]:
+def _separable(x1: FloatArray, x2: FloatArray, c3: FloatArray, h1: FloatArray, h2: FloatArray,
+               h3: FloatArray, nu: float, shape: tuple[int, ...],
+               axes: tuple[tuple[int, ...], ...]) -> FloatArray:
     """Corner sums on the lattice of distinct corner coordinates, one depth plane at a time.
 
     Lateral offsets are folded to x1, x2 >= 0 by the parities of K (components 12, 13 odd in
@@ -410,12 +422,13 @@ def _graded_panels(scale: float, ratio: float = 0.3) -> NDArray[np.float64]:
     return np.concatenate(([0.0], ratio ** np.arange(n, -1, -1)))
 
 
-def _gauss(breaks: NDArray[np.float64], t, w) -> tuple[NDArray[np.float64], ...]:
+def _gauss(breaks: FloatArray, t: FloatArray, w: FloatArray) -> tuple[FloatArray, FloatArray]:
     a, b = breaks[:-1, None], breaks[1:, None]
     return (0.5 * (a + b) + 0.5 * (b - a) * t).ravel(), (0.5 * (b - a) * w).ravel()
 
 
-def _pyramid_rule(apex, edge, axis: int, dist: float, order: int):
+def _pyramid_rule(apex: FloatArray, edge: FloatArray, axis: int, dist: float, order: int
+                  ) -> tuple[FloatArray, FloatArray]:
     """Nodes and weights of the pyramid of a box with vertex ``apex`` and edge vector ``edge``.
 
     The pyramid has its apex at ``apex`` and its base on the face opposite to it normal to
@@ -449,7 +462,7 @@ def surface_displacement_by_quadrature(
     nu: float,
     source: ArrayLike,
     order: int = 12,
-    integrand: Callable[[NDArray, NDArray, NDArray], NDArray] | None = None,
+    integrand: Callable[[FloatArray, FloatArray, FloatArray], FloatArray] | None = None,
 ) -> float | NDArray[np.float64]:
     r"""Slow reference: u3 at (x1, x2, 0) by quadrature of Boussinesq's stress over a cuboid.
 
@@ -496,7 +509,7 @@ def surface_displacement_by_quadrature(
     dist = float(np.linalg.norm(p))
     if integrand is None:
 
-        def integrand(a, b, c):
+        def integrand(a: FloatArray, b: FloatArray, c: FloatArray) -> FloatArray:
             return boussinesq_stress(a, b, c, nu)
 
     pts, wts = [], []

@@ -70,6 +70,8 @@ References
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -245,7 +247,7 @@ def traction_stress(
 def surface_load_stress_coefficients(
     cell: tuple[float, float], depths: NDArray[np.float64], nu: float,
     traction: tuple[float, float] | None = None,
-):
+) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
     """Influence coefficients of a cell's unit pressure on the stress at a set of depths.
 
     For :class:`sacflow.kernels.convolution.Convolution`: ``coefficients(d1, d2)`` at integer cell

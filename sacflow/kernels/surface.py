@@ -187,7 +187,9 @@ def rectangle_stress(
 _RECTANGLE_TERMS = ("p3", "p11", "p22", "p12", "p13", "p23", "s11", "s22", "s12")
 
 
-def _rectangle_corner_terms(X, Y, z) -> dict[str, NDArray[np.float64]]:
+def _rectangle_corner_terms(X: NDArray[np.float64], Y: NDArray[np.float64],
+                            z: NDArray[np.float64] | np.float64
+                            ) -> dict[str, NDArray[np.float64]]:
     """Corner functions of :func:`rectangle_stress` at one corner (``X, Y``: offsets from it)."""
     z2 = z * z
     XX, YY, XY = X * X, Y * Y, X * Y
@@ -309,10 +311,12 @@ def boussinesq_stress(
     b = (2.0 * R + z) / (R3 * Rz * Rz)  # x_α x_β part of ψ1,αβ
     iso = -nu * z / (np.pi * R3)
 
-    def s_ab(xa, xb, delta: float) -> NDArray[np.float64]:
+    def s_ab(xa: NDArray[np.float64], xb: NDArray[np.float64], delta: float
+             ) -> NDArray[np.float64]:
         psi = delta * a - xa * xb * b
         phi = 3.0 * xa * xb / R5 - delta / R3
-        return delta * iso - c * (k * psi + z * phi)
+        stress: NDArray[np.float64] = delta * iso - c * (k * psi + z * phi)
+        return stress
 
     out = np.empty((*shape, 6))
     out[..., 0] = s_ab(x1, x1, 1.0)
