@@ -199,11 +199,6 @@ class Convolution:
             np.divide(batch.forward()[: rows.stop - rows.start], batch.size, out=spectra[rows])
         return spectra.reshape(n_out, n_in, *spectra.shape[1:])
 
-    @property
-    def nbytes(self) -> int:
-        """Bytes held by the cached kernel spectra and the FFT buffers."""
-        return self.spectra.nbytes + self._forward.nbytes + self._inverse.nbytes
-
     def __call__(self, x: np.ndarray) -> np.ndarray:
         """Apply to ``x`` of shape ``(n_in_comp, *in_shape)`` (or ``in_shape`` if one component).
 

@@ -63,6 +63,10 @@ Residual surface displacement (seed eqs. 1.23, 2.3; reciprocal theorem): ``u3(A)
 :func:`sacflow.kernels.residual_displacement.cuboid_surface_displacement`; summed over layers by
 a contraction of the same depth spectra of the eigenstrain (the layer sum through the
 synthesis basis of the depth transform). Exact (no traction truncation).
+
+Here the operator and its application; the kernel spectra are made by
+:mod:`sacflow.kernels.eigenstrain_spectra`, and the memory it needs is counted by
+:mod:`sacflow.kernels.eigenstrain_memory`.
 """
 
 from __future__ import annotations
@@ -74,8 +78,9 @@ from typing import Any, Literal, overload
 
 import numpy as np
 
+from sacflow.kernels.cuboid import SHEAR_WEIGHTS
 from sacflow.kernels.eigenstrain_memory import kernel_bytes, padded_lengths
-from sacflow.kernels.eigenstrain_spectra import EVEN, KERNEL_VERSION, ODD, WEIGHT, kernel_spectra
+from sacflow.kernels.eigenstrain_spectra import EVEN, KERNEL_VERSION, ODD, kernel_spectra
 from sacflow.kernels.fft import RealFFT, RealToReal, default_threads
 from sacflow.machine.kernel_cache import cached_arrays
 from sacflow.machine.resources import available_memory
@@ -143,7 +148,6 @@ class HalfSpaceEigenstrain:
                 f"but only {budget / 2**30:.2f} GiB are available: use fewer cells "
                 f"(grid.nx/ny/nz) or a shallower box (grid.depth)"
             )
-        self.nbytes = need
         n1, n2, n3 = self.shape
         L1, L2, N = padded_lengths(self.shape)
         self.padded = (N, L1, L2)
@@ -171,7 +175,7 @@ class HalfSpaceEigenstrain:
         self._executor: ThreadPoolExecutor | None = None
         # contiguous ranges of depth frequencies, one per thread
         self._ranges = contiguous_ranges(N + 1, self.threads)
-        self._inv_weight = 1.0 / WEIGHT
+        self._inv_weight = 1.0 / SHEAR_WEIGHTS
         self._spectra_of_eps = False  # the buffer holds the spectra surface_fields left
         # The 21 pair spectra; the surface kernels (traction, displacement) stacked for one
         # pass; the traction correction. From the disk cache when it has them.

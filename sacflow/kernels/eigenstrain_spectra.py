@@ -17,7 +17,7 @@ from collections.abc import Sequence
 import numpy as np
 import scipy.fft
 
-from sacflow.kernels.cuboid import PARITY
+from sacflow.kernels.cuboid import PARITY, SHEAR_WEIGHTS
 from sacflow.kernels.cuboid_lattice import CuboidLattice
 from sacflow.kernels.eigenstrain_memory import DEPTH_BLOCK_BYTES, padded_lengths
 from sacflow.kernels.folded_fft import folded_spectra
@@ -30,7 +30,6 @@ __all__ = [
     "KERNEL_VERSION",
     "MIRROR_SIGN",
     "ODD",
-    "WEIGHT",
     "depth_projection",
     "depth_spectra",
     "folded_offsets",
@@ -43,8 +42,6 @@ __all__ = [
 MIRROR_SIGN = PARITY[2]
 #: Components even (11 22 33 12) and odd (13 23) under x3 → −x3.
 EVEN, ODD = slice(0, 4), slice(4, 6)
-#: Reciprocity weights of the components (tensor shears count twice in σ : ε).
-WEIGHT = np.array([1.0, 1.0, 1.0, 2.0, 2.0, 2.0])
 #: Version of the kernel spectra's formulas and layout: part of their disk-cache key
 #: (:mod:`sacflow.machine.kernel_cache`); increase it with any change of what the spectra hold.
 KERNEL_VERSION = 3
@@ -58,7 +55,8 @@ def _check_reciprocity(fields: np.ndarray) -> None:
     transforms give the even–odd pairs, which :func:`sacflow.kernels.pair_products.pair_products`
     relies on); a kernel without it raises ``RuntimeError``.
     """
-    weighted = (fields.reshape(*fields.shape[:-1], 6, 6) * WEIGHT[:, None]).reshape(fields.shape)
+    matrix = fields.reshape(*fields.shape[:-1], 6, 6)
+    weighted = (matrix * SHEAR_WEIGHTS[:, None]).reshape(fields.shape)
     index = np.arange(36).reshape(6, 6)
     _raise_if_broken(float(np.abs(weighted - weighted[..., index.T.ravel()]).max()),
                      float(np.abs(weighted).max()), "reciprocity")
@@ -180,7 +178,7 @@ def pair_spectra(shape: Sequence[int], spacing: Sequence[float], nu: float, mu: 
     _check_depth_parity(check.folded_plane(-d3), check.folded_plane(d3))
     for m in (0, 1, N // 2):  # in real space; then only the stored columns are computed
         _check_reciprocity(check.folded_plane(m * d3))
-    weights = np.array([WEIGHT[c] for c, _ in PAIRS])
+    weights = np.array([SHEAR_WEIGHTS[c] for c, _ in PAIRS])
     parities = np.array([[PARITY[a, c] * PARITY[a, d] for a in (0, 1)] for c, d in PAIRS])
     # Point-major storage (one contiguous run of 21 per spectral point), rows k1 ≤ L1 // 2
     # (the others are their mirror images): see pair_products.
