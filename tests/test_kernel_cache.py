@@ -74,8 +74,8 @@ def test_contact_stress_operator_from_the_cache_equals_the_computed_one(cache):
     assert isinstance(spectra, np.memmap) or isinstance(spectra.base, np.memmap)
     np.testing.assert_array_equal(spectra, first.pressure_stress_op.spectra)
     pressure = np.random.default_rng(2).random(first.body_shape)
-    np.testing.assert_array_equal(second._pressure_stress_op_apply(pressure),
-                                  first._pressure_stress_op_apply(pressure))
+    np.testing.assert_array_equal(second.pressure_stress_op(pressure[None]),
+                                  first.pressure_stress_op(pressure[None]))
     Simulation(load_case(config, [*small, "friction.coefficient=0.2"]))
     kinds = sorted(e.kind for e in kernel_cache.list_entries(cache))
     assert kinds == ["contact_stress", "contact_stress", "eigenstrain"]

@@ -1,10 +1,9 @@
 """Memory model of the eigenstrain operator: what it keeps, what its set-up needs.
 
 What a built :class:`~sacflow.kernels.eigenstrain.HalfSpaceEigenstrain` keeps
-(:func:`operator_bytes`), what its set-up needs besides
-(:func:`setup_bytes`) and their sum, the peak (:func:`kernel_bytes`): the operator refuses a grid
-whose peak exceeds the memory available, and the solver's memory estimate
-(:mod:`sacflow.solver.memory_estimate`) counts them before anything is allocated. The figures
+(:func:`operator_bytes`), what its set-up needs besides (:func:`setup_bytes`) and their sum,
+the peak (:func:`kernel_bytes`): the operator refuses a grid whose peak exceeds the memory
+available, and the solver's memory estimate counts them before anything is allocated. The figures
 follow from the array shapes of :mod:`sacflow.kernels.eigenstrain_spectra` and of the operator's
 transform buffer; the set-up's were checked against tracemalloc (``docs/performance.md``).
 """
