@@ -21,7 +21,8 @@ def measure(shape: tuple[int, int, int]) -> dict:
     import numpy as np
     import pyfftw
 
-    from sacflow.kernels.eigenstrain import HalfSpaceEigenstrain, kernel_bytes
+    from sacflow.kernels.eigenstrain import HalfSpaceEigenstrain
+    from sacflow.kernels.eigenstrain_memory import kernel_bytes
     from sacflow.kernels.fft import default_threads
 
     t0 = time.perf_counter()

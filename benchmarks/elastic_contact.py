@@ -15,7 +15,7 @@ from _common import emit, isolated, timed
 def measure(n: int) -> dict:
     import numpy as np
 
-    from sacflow.kernels.fft import Convolution
+    from sacflow.kernels.convolution import Convolution
     from sacflow.kernels.surface import rectangle_displacement
     from sacflow.mechanics.contact import solve_contact
     from sacflow.mechanics.hertz import composite_modulus, hertz_contact, hertz_pressure

@@ -7,7 +7,7 @@ import pytest
 from numpy.testing import assert_allclose
 
 from sacflow.errors import ConvergenceError
-from sacflow.kernels.fft import Convolution
+from sacflow.kernels.convolution import Convolution
 from sacflow.kernels.surface import rectangle_displacement
 from sacflow.mechanics.contact import solve_contact
 from sacflow.mechanics.hertz import composite_modulus, hertz_contact, hertz_pressure

@@ -18,9 +18,11 @@ from sacflow.kernels.cuboid import (
     COMPONENTS,
     cuboid_stress,
     cuboid_stress_component,
+    stiffness_matrix,
+)
+from sacflow.kernels.quadrature_reference import (
     eigenstrain_stress_by_quadrature,
     kelvin_displacement_gradient,
-    stiffness_matrix,
 )
 
 MU = 80.0e9  # Pa

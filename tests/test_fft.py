@@ -5,8 +5,9 @@ import pytest
 import scipy.fft
 from numpy.testing import assert_allclose
 
+from sacflow.kernels.convolution import next_regular
 from sacflow.kernels.cuboid import PARITY
-from sacflow.kernels.fft import RealFFT, RealToReal, next_regular
+from sacflow.kernels.fft import RealFFT, RealToReal
 from sacflow.kernels.pair_products import PAIRS, depth_sums, pair_products
 
 

@@ -11,8 +11,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from sacflow.kernels.convolution import padded_length, wraparound_offsets
 from sacflow.kernels.cuboid import PARITY
-from sacflow.kernels.fft import padded_length, wraparound_offsets
 from sacflow.kernels.folded_fft import folded_spectra, stored_sign
 from sacflow.kernels.residual_displacement import cuboid_surface_displacement
 from sacflow.kernels.surface import rectangle_stress

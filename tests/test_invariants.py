@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import sacflow
-from sacflow.kernels.fft import Convolution
+from sacflow.kernels.convolution import Convolution
 from sacflow.kernels.surface import rectangle_stress
 from sacflow.solver.simulation import Simulation
 from sacflow.storage.case_file import case_from_dict

@@ -40,8 +40,9 @@ def test_operator_from_the_cache_equals_the_computed_one_bit_for_bit(cache):
     computed = HalfSpaceEigenstrain(shape, spacing, E, NU)
     assert [e.kind for e in kernel_cache.list_entries(cache)] == ["eigenstrain"]
     loaded = HalfSpaceEigenstrain(shape, spacing, E, NU)
-    assert isinstance(loaded._kernels.base, np.memmap) or isinstance(loaded._kernels, np.memmap)
-    for name in ("_kernels", "_surface", "_correction"):
+    spectra = loaded.pair_spectra
+    assert isinstance(spectra.base, np.memmap) or isinstance(spectra, np.memmap)
+    for name in ("pair_spectra", "surface_spectra", "correction_spectra"):
         np.testing.assert_array_equal(getattr(loaded, name), getattr(computed, name))
     s1, u1 = computed.residual_stress(eps, with_displacement=True)
     s2, u2 = loaded.residual_stress(eps, with_displacement=True)
@@ -73,8 +74,8 @@ def test_contact_stress_operator_from_the_cache_equals_the_computed_one(cache):
     assert isinstance(spectra, np.memmap) or isinstance(spectra.base, np.memmap)
     np.testing.assert_array_equal(spectra, first.pressure_stress_op.spectra)
     pressure = np.random.default_rng(2).random(first.body_shape)
-    np.testing.assert_array_equal(second._pressure_stress_op_apply(pressure),
-                                  first._pressure_stress_op_apply(pressure))
+    np.testing.assert_array_equal(second.pressure_stress_op(pressure[None]),
+                                  first.pressure_stress_op(pressure[None]))
     Simulation(load_case(config, [*small, "friction.coefficient=0.2"]))
     kinds = sorted(e.kind for e in kernel_cache.list_entries(cache))
     assert kinds == ["contact_stress", "contact_stress", "eigenstrain"]
@@ -86,19 +87,19 @@ def test_array_files_are_whole_and_block_aligned(tmp_path, monkeypatch, n, route
     """The arrays' files, written past the page cache or not: numpy reads them back bit for bit,
     the data starts on a 4096-byte block, nothing follows it; small bounce chunks so that the
     writes cross chunk and block boundaries."""
-    monkeypatch.setattr(kernel_cache, "_DIRECT_CHUNK", 3 * 4096)
+    monkeypatch.setattr(kernel_cache, "DIRECT_CHUNK_BYTES", 3 * 4096)
     if route == "no O_DIRECT":
         monkeypatch.delattr(os, "O_DIRECT", raising=False)
     elif route == "refused":
         def refuse(*args):
             raise OSError(errno.EINVAL, "O_DIRECT refused")
 
-        monkeypatch.setattr(kernel_cache, "_copy_out", refuse)
+        monkeypatch.setattr(kernel_cache, "copy_out_direct", refuse)
     rng = np.random.default_rng(n)
     for array in (rng.standard_normal(n), rng.standard_normal((3, n)).astype(np.float32),
                   rng.standard_normal((n, 2)) + 1j):
         path = tmp_path / "a.npy"
-        kernel_cache._write_npy(path, np.ascontiguousarray(array))
+        kernel_cache.write_npy(path, np.ascontiguousarray(array))
         with open(path, "rb") as fh:
             assert np.lib.format.read_magic(fh) == (1, 0)
             np.lib.format.read_array_header_1_0(fh)
@@ -246,7 +247,7 @@ def test_unwritable_cache_warns_and_computes(tmp_path, monkeypatch):
     blocker.write_text("not a directory")
     monkeypatch.setenv("SACFLOW_CACHE_DIR", str(blocker / "kernels"))
     monkeypatch.setattr(kernel_cache, "MIN_CACHED_BYTES", 0)
-    monkeypatch.setattr(kernel_cache, "_WARNED", set())
+    monkeypatch.setattr(kernel_cache, "WARNED_DIRECTORIES", set())
     with pytest.warns(RuntimeWarning, match="cannot be written"):
         out = kernel_cache.cached_arrays("test", {"n": 1}, arrays)
     np.testing.assert_array_equal(out["a"], arrays()["a"])

@@ -15,11 +15,9 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from sacflow.kernels.residual_displacement import (
-    SHEAR_WEIGHTS,
-    cuboid_surface_displacement,
-    surface_displacement_by_quadrature,
-)
+from sacflow.kernels.cuboid import SHEAR_WEIGHTS
+from sacflow.kernels.quadrature_reference import surface_displacement_by_quadrature
+from sacflow.kernels.residual_displacement import cuboid_surface_displacement
 from sacflow.kernels.surface import boussinesq_displacement, boussinesq_stress
 
 E = 210.0e9

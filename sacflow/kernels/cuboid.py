@@ -40,7 +40,8 @@ an alternating sum over the eight corners ``c`` (``y = x − c``, ``R = |y|``, s
 and index permutations (``ψ_,ijkl`` depends only on how often each index occurs).  Each entry
 was derived from the antiderivative conditions (e.g. ``∂2∂3 F = R_,111`` for ``ψ_,1111``,
 ``∂3 F = R_,11`` for ``ψ_,1112``) and verified symbolically; the tests compare the result with
-quadrature of Kelvin's solution.  The seed paper's appendix 1 (garbled transcription) lists
+quadrature of Kelvin's solution (:mod:`sacflow.kernels.quadrature_reference`).  The seed
+paper's appendix 1 (garbled transcription) lists
 ``D = −π² ×`` these functions; its ``γ3 ln((R + |γ3|)/ρ)`` reads ``sign(γ3) ln(...) = asinh(γ3/ρ)``
 up to a ``ln ρ`` that cancels in the corner sum.  Each corner term is smooth for ``y_i ≠ 0``, so
 the sums are exact everywhere off the planes ``x_i = ±half_i``; the ``atan`` terms carry the jump
@@ -64,16 +65,19 @@ reflection rule ``A_cd(R_i x) = s_c s_d A_cd(x)``, ``s = (−1)^(times i occurs 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 __all__ = [
     "COMPONENTS",
     "PARITY",
     "cuboid_stress",
     "cuboid_stress_component",
-    "eigenstrain_stress_by_quadrature",
-    "kelvin_displacement_gradient",
+    "SHEAR_WEIGHTS",
+    "lame_lambda",
+    "unit_eigenstrain",
     "stiffness_matrix",
 ]
 
@@ -83,11 +87,18 @@ COMPONENTS: tuple[tuple[int, int], ...] = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2
 #: Sign of each component under the reflection of axis i, ``PARITY[i, c]``: −1 when the axis
 #: occurs an odd number of times in the component (12 and 13 flip with x1, 12 and 23 with x2).
 PARITY = np.array([[(-1.0) ** pair.count(axis) for pair in COMPONENTS] for axis in range(3)])
+#: Weights of the components (11, 22, 33, 12, 13, 23) in ε*:σ with tensor shear components
+#: (tensor shears count twice; also the reciprocity weights of the eigenstrain kernels).
+SHEAR_WEIGHTS = np.array([1.0, 1.0, 1.0, 2.0, 2.0, 2.0])
+SHEAR_WEIGHTS.setflags(write=False)
 
 _MAX_POINTS = 1 << 17  # points per block in the corner sums (bounded temporaries)
+#: The corner sums ``(T, L, Q, M, N)`` of :func:`_corner_sums` (M keyed by an axis pair).
+CornerSums = tuple[list[np.ndarray], list[np.ndarray], list[np.ndarray],
+                   dict[tuple[int, int], np.ndarray], list[np.ndarray]]
 
 
-def _lame(nu: float, mu: float) -> float:
+def lame_lambda(nu: float, mu: float) -> float:
     """Lamé's first parameter λ = 2 μ ν / (1 − 2 ν)."""
     return 2.0 * mu * nu / (1.0 - 2.0 * nu)
 
@@ -98,7 +109,7 @@ def stiffness_matrix(nu: float, mu: float) -> np.ndarray:
     The columns 12, 13, 23 act on *tensor* shear strains, so ``C[3, 3] = 2 μ`` (one entry of
     the symmetric pair; the contribution of ``ε_21`` is folded in).
     """
-    lam = _lame(nu, mu)
+    lam = lame_lambda(nu, mu)
     c = np.zeros((6, 6))
     c[:3, :3] = lam
     c[[0, 1, 2], [0, 1, 2]] += 2.0 * mu
@@ -106,7 +117,7 @@ def stiffness_matrix(nu: float, mu: float) -> np.ndarray:
     return c
 
 
-def _unit_tensor(source: int) -> np.ndarray:
+def unit_eigenstrain(source: int) -> np.ndarray:
     """3×3 symmetric unit eigenstrain for component ``source`` (tensor convention)."""
     if not 0 <= int(source) <= 5:
         raise ValueError(f"source must be an eigenstrain component index 0..5, got {source!r}")
@@ -121,7 +132,8 @@ def _unit_tensor(source: int) -> np.ndarray:
 # ---------------------------------------------------------------------------------------------
 
 
-def _corner_sums(y0, y1, y2, h):
+def _corner_sums(y0: np.ndarray, y1: np.ndarray, y2: np.ndarray, h: Sequence[float]
+                 ) -> CornerSums:
     """Compute the 8-corner sums for field points ``y`` (dimensionless, broadcastable), box ``h``.
 
     Returns ``T[i] = Σ s atan(y_j y_k / (y_i R))``, ``L[k] = Σ s asinh(y_k / ρ_ij)``,
@@ -162,7 +174,7 @@ def _corner_sums(y0, y1, y2, h):
     return T, L, Q, M, N
 
 
-def _psi4(sums, idx):
+def _psi4(sums: CornerSums, idx: tuple[int, ...]) -> np.ndarray:
     """``ψ_,ijkl`` (dimensionless) from the corner sums, for the index multiset ``idx``."""
     T, L, Q, M, N = sums
     counts = [idx.count(a) for a in range(3)]
@@ -179,7 +191,7 @@ def _psi4(sums, idx):
     return N[counts.index(2)]  # ψ,iijk
 
 
-def _phi2(sums, i, j):
+def _phi2(sums: CornerSums, i: int, j: int) -> np.ndarray:
     """``φ_,ij`` (dimensionless) from the corner sums."""
     T, L = sums[0], sums[1]
     if i == j:
@@ -187,23 +199,28 @@ def _phi2(sums, i, j):
     return L[3 - i - j]
 
 
-def _stress_from_sums(sums, inside, sources, nu, mu):
-    """Stress columns ``(…, 6, len(sources))`` for unit eigenstrains from the corner sums."""
-    lam = _lame(nu, mu)
+def stress_from_sums(sums: CornerSums, inside: np.ndarray | float, sources: Sequence[int],
+                     nu: float, mu: float) -> np.ndarray:
+    """Stress columns ``(…, 6, len(sources))`` for unit eigenstrains from the corner sums.
+
+    ``inside``: True (or 1.0) at the points inside the cuboid, where the eigenstrain's own
+    stress-free part is taken off.
+    """
+    lam = lame_lambda(nu, mu)
     k = 1.0 / (8.0 * math.pi * (1.0 - nu))
     phi = {(i, j): _phi2(sums, i, j) for i in range(3) for j in range(i, 3)}
 
-    def ph(i, j):
+    def ph(i: int, j: int) -> np.ndarray:
         return phi[(min(i, j), max(i, j))]
 
     shape = sums[0][0].shape
     out = np.empty((*shape, 6, len(sources)))
     for col, d in enumerate(sources):
         m, n = COMPONENTS[d]
-        e_star = _unit_tensor(d)
+        e_star = unit_eigenstrain(d)
         theta = float(np.trace(e_star))
         weight = 1.0 if m == n else 2.0  # ψ,ijkl ε*_kl sums the pair (mn), (nm)
-        strain = {}
+        strain: dict[tuple[int, int], np.ndarray] = {}
         for i, j in COMPONENTS:
             val = weight * _psi4(sums, (i, j, m, n))
             if theta:
@@ -229,16 +246,17 @@ def _stress_from_sums(sums, inside, sources, nu, mu):
 # ---------------------------------------------------------------------------------------------
 
 
-def _aligned(xs):
+def _aligned(xs: Sequence[ArrayLike]) -> tuple[list[np.ndarray], tuple[int, ...]]:
     """Arrays broadcast-aligned to a common ndim (at least 1) and the broadcast shape."""
-    xs = [np.asarray(a, dtype=float) for a in xs]
-    shape = np.broadcast_shapes(*(a.shape for a in xs))
+    arrays = [np.asarray(a, dtype=float) for a in xs]
+    shape = np.broadcast_shapes(*(a.shape for a in arrays))
     nd = max(1, len(shape))
-    xs = [a.reshape((1,) * (nd - a.ndim) + a.shape) for a in xs]
-    return xs, np.broadcast_shapes(*(a.shape for a in xs))
+    arrays = [a.reshape((1,) * (nd - a.ndim) + a.shape) for a in arrays]
+    return arrays, np.broadcast_shapes(*(a.shape for a in arrays))
 
 
-def _blocked(xs, shape, half, sources, nu, mu):
+def _blocked(xs: Sequence[np.ndarray], shape: tuple[int, ...], half: Sequence[float],
+             sources: Sequence[int], nu: float, mu: float) -> np.ndarray:
     """Evaluate on broadcast-aligned ``xs`` in blocks of at most ~``_MAX_POINTS`` points."""
     out = np.empty((*shape, 6, len(sources)))
     scale = max(half)
@@ -262,7 +280,7 @@ def _blocked(xs, shape, half, sources, nu, mu):
             inside = (np.abs(y0) < h[0]) & (np.abs(y1) < h[1]) & (np.abs(y2) < h[2])
             with np.errstate(divide="ignore", invalid="ignore"):
                 sums = _corner_sums(y0, y1, y2, h)
-                out[sl] = _stress_from_sums(sums, inside, sources, nu, mu)
+                out[sl] = stress_from_sums(sums, inside, sources, nu, mu)
     return out
 
 
@@ -271,15 +289,16 @@ def _odd_count(c: int, axis: int) -> int:
     return COMPONENTS[c].count(axis)
 
 
-def _evaluate(x1, x2, x3, half, sources, nu, mu):
+def _evaluate(x1: ArrayLike, x2: ArrayLike, x3: ArrayLike, half: Sequence[float],
+              sources: Sequence[int], nu: float, mu: float) -> np.ndarray:
     """Stress columns ``(…, 6, len(sources))``; uses reflection symmetry on separable grids."""
-    half = _checked(half, nu)
+    halves = checked_half_sizes(half, nu)
     xs, shape = _aligned((x1, x2, x3))
     axes = [[d for d, n in enumerate(a.shape) if n > 1] for a in xs]
     varying = [a[0] for a in axes if a]
     separable = all(len(a) <= 1 for a in axes) and len(varying) == len(set(varying))
     if not separable:
-        return _blocked(xs, shape, half, sources, nu, mu)
+        return _blocked(xs, shape, halves, sources, nu, mu)
     # A(R_i x) = S_i A(x) S_i for the reflection R_i of axis i: evaluate on |x_i| only.
     reduced, inverse, signs = [], [], []
     for a in xs:
@@ -289,26 +308,27 @@ def _evaluate(x1, x2, x3, half, sources, nu, mu):
         signs.append(np.where(a < 0.0, -1.0, 1.0))
     red_shape = np.broadcast_shapes(*(r.shape for r in reduced))
     if math.prod(red_shape) > 0.7 * math.prod(shape):
-        return _blocked(xs, shape, half, sources, nu, mu)
-    out = _blocked(reduced, red_shape, half, sources, nu, mu)
-    for a, inv in zip(axes, inverse, strict=True):
-        if a:
-            out = np.take(out, inv, axis=a[0])
+        return _blocked(xs, shape, halves, sources, nu, mu)
+    out = _blocked(reduced, red_shape, halves, sources, nu, mu)
+    for varied, inv in zip(axes, inverse, strict=True):
+        if varied:
+            out = np.take(out, inv, axis=varied[0])
     _mirror_signs(out, sources, signs)
     return out
 
 
-def _checked(half, nu) -> tuple[float, float, float]:
+def checked_half_sizes(half: Sequence[float], nu: float) -> tuple[float, float, float]:
     """Return the half sizes as floats after checking them and the Poisson ratio."""
-    half = tuple(float(h) for h in half)
-    if any(not (h > 0.0 and math.isfinite(h)) for h in half):
-        raise ValueError(f"cuboid half sizes must be positive and finite, got {half}")
+    halves = tuple(float(h) for h in half)
+    if any(not (h > 0.0 and math.isfinite(h)) for h in halves):
+        raise ValueError(f"cuboid half sizes must be positive and finite, got {halves}")
     if not (-1.0 < nu < 0.5):
         raise ValueError(f"Poisson ratio must lie in (-1, 0.5), got {nu}")
-    return half
+    h1, h2, h3 = halves
+    return h1, h2, h3
 
 
-def _mirror_signs(out: np.ndarray, sources, signs: list[np.ndarray]) -> None:
+def _mirror_signs(out: np.ndarray, sources: Sequence[int], signs: list[np.ndarray]) -> None:
     """Apply in place the sign ``S_i A S_i`` of each reflected axis to the mirrored columns.
 
     Entry ``(c, d)`` changes sign under the reflection of an axis when that axis appears an odd
@@ -324,7 +344,8 @@ def _mirror_signs(out: np.ndarray, sources, signs: list[np.ndarray]) -> None:
                 out[..., c, col] *= factor
 
 
-def cuboid_stress(x1, x2, x3, half1, half2, half3, nu, mu) -> np.ndarray:
+def cuboid_stress(x1: ArrayLike, x2: ArrayLike, x3: ArrayLike, half1: float, half2: float,
+                  half3: float, nu: float, mu: float) -> np.ndarray:
     """Influence matrix of a cuboid of uniform eigenstrain in an infinite elastic space.
 
     Chiu, J. Appl. Mech. 44 (1977) 587, doi:10.1115/1.3424384; Mura (1987) §11.  See the
@@ -356,7 +377,9 @@ def cuboid_stress(x1, x2, x3, half1, half2, half3, nu, mu) -> np.ndarray:
     return _evaluate(x1, x2, x3, (half1, half2, half3), tuple(range(6)), nu, mu)
 
 
-def cuboid_stress_component(x1, x2, x3, half1, half2, half3, nu, mu, source: int) -> np.ndarray:
+def cuboid_stress_component(x1: ArrayLike, x2: ArrayLike, x3: ArrayLike, half1: float,
+                            half2: float, half3: float, nu: float, mu: float,
+                            source: int) -> np.ndarray:
     """Stress of a cuboid of unit eigenstrain component ``source`` in an infinite space.
 
     Column ``source`` of :func:`cuboid_stress` (same parameters), computed without the other
@@ -375,117 +398,5 @@ def cuboid_stress_component(x1, x2, x3, half1, half2, half3, nu, mu, source: int
     ndarray, shape ``(..., 6)``
         Stress components (11, 22, 33, 12, 13, 23) [Pa].
     """
-    _unit_tensor(source)
+    unit_eigenstrain(source)
     return _evaluate(x1, x2, x3, (half1, half2, half3), (int(source),), nu, mu)[..., 0]
-
-
-# ---------------------------------------------------------------------------------------------
-# independent reference: Kelvin's solution and surface quadrature (slow)
-# ---------------------------------------------------------------------------------------------
-
-
-def kelvin_displacement_gradient(r1, r2, r3, nu, mu) -> np.ndarray:
-    r"""Gradient of Kelvin's point-force solution in an infinite isotropic space.
-
-    ``u_i(x) = G_ij(x − x') F_j`` with
-    ``G_ij(r) = [(3 − 4ν) δ_ij / r + r_i r_j / r³] / (16 π μ (1 − ν))`` (Mura 1987, eq. 5.19),
-    and
-
-    .. math::
-
-        G_{ij,k} = \frac{-(3 - 4ν) δ_{ij} r_k + δ_{ik} r_j + δ_{jk} r_i - 3 r_i r_j r_k / r^2}
-                        {16 π μ (1 - ν) r^3}.
-
-    Parameters
-    ----------
-    r1, r2, r3 : array_like
-        Field point minus source point [m], broadcastable, nonzero.
-    nu, mu : float
-        Poisson ratio and shear modulus [Pa].
-
-    Returns
-    -------
-    ndarray, shape ``(..., 3, 3, 3)``
-        ``G[..., i, j, k] = ∂G_ij / ∂x_k`` [m/N per m].
-    """
-    r = np.stack(np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (r1, r2, r3))), -1)
-    rr = np.sqrt(np.sum(r * r, axis=-1))[..., None, None, None]
-    eye = np.eye(3)
-    ri = r[..., :, None, None]
-    rj = r[..., None, :, None]
-    rk = r[..., None, None, :]
-    g = (
-        -(3.0 - 4.0 * nu) * eye[:, :, None] * rk
-        + eye[:, None, :] * rj
-        + eye[None, :, :] * ri
-        - 3.0 * ri * rj * rk / rr**2
-    )
-    return g / (16.0 * math.pi * mu * (1.0 - nu) * rr**3)
-
-
-def eigenstrain_stress_by_quadrature(x, half, nu, mu, source, order, panels=1) -> np.ndarray:
-    r"""Slow reference: stress of a cuboid eigenstrain by quadrature of Kelvin's solution.
-
-    Independent of the potentials used by :func:`cuboid_stress`: a uniform eigenstrain ``ε*`` in
-    ``V`` is equivalent to the surface tractions ``t = (C:ε*) n`` on ``∂V`` (outward normal), so
-
-    .. math::
-
-        u_{i,k}(x) = \oint_{∂V} G_{ij,k}(x - x') (C:ε^*)_{jl} n_l\, dS',\qquad
-        σ = C:(\operatorname{sym}∇u − ε^* H),
-
-    integrated with Gauss–Legendre rules (``order`` points per direction on each of
-    ``panels × panels`` panels of every face).  Smooth, hence spectrally convergent, for points
-    away from the faces, inside or outside.  For tests only (O(points × order² × panels²)).
-
-    Parameters
-    ----------
-    x : array_like, shape ``(..., 3)``
-        Field points relative to the cuboid centre [m].
-    half : sequence of 3 floats
-        Half sizes [m].
-    nu, mu : float
-        Poisson ratio and shear modulus [Pa].
-    source : int
-        Eigenstrain component 0..5 (unit tensor value).
-    order : int
-        Gauss–Legendre points per direction per panel.
-    panels : int, optional
-        Panels per face direction (composite rule), default 1.
-
-    Returns
-    -------
-    ndarray, shape ``(..., 6)``
-        Stress components (11, 22, 33, 12, 13, 23) [Pa].
-    """
-    x = np.asarray(x, dtype=float)
-    half = np.asarray(half, dtype=float)
-    lam = _lame(nu, mu)
-    e_star = _unit_tensor(source)
-    s = lam * np.trace(e_star) * np.eye(3) + 2.0 * mu * e_star
-    t, w = np.polynomial.legendre.leggauss(int(order))
-    edges = np.linspace(-1.0, 1.0, int(panels) + 1)
-    mid, width = 0.5 * (edges[1:] + edges[:-1]), 0.5 * (edges[1:] - edges[:-1])
-    t_all = (mid[:, None] + width[:, None] * t[None, :]).ravel()
-    w_all = (width[:, None] * w[None, :]).ravel()
-    pts = x.reshape(-1, 3)
-    grad = np.zeros((pts.shape[0], 3, 3))
-    for axis in range(3):
-        b, c = (axis + 1) % 3, (axis + 2) % 3
-        tb, tc = np.meshgrid(t_all * half[b], t_all * half[c], indexing="ij")
-        area = np.outer(w_all, w_all).ravel() * half[b] * half[c]
-        for side in (-1.0, 1.0):
-            nodes = np.zeros((tb.size, 3))
-            nodes[:, axis] = side * half[axis]
-            nodes[:, b], nodes[:, c] = tb.ravel(), tc.ravel()
-            traction = s[:, axis] * side  # (C:ε*)_jl n_l
-            for start in range(0, pts.shape[0], 16):
-                r = pts[start : start + 16, None, :] - nodes[None, :, :]
-                g = kelvin_displacement_gradient(r[..., 0], r[..., 1], r[..., 2], nu, mu)
-                grad[start : start + 16] += np.einsum("pnijk,j,n->pik", g, traction, area)
-    strain = 0.5 * (grad + np.swapaxes(grad, -1, -2))
-    inside = np.all(np.abs(pts) < half, axis=-1)
-    sig = 2.0 * mu * strain + lam * np.trace(strain, axis1=-2, axis2=-1)[:, None, None] * np.eye(3)
-    sig = sig - inside[:, None, None] * s
-    out = np.stack([sig[:, i, j] for i, j in COMPONENTS], axis=-1)
-    return out.reshape(*x.shape[:-1], 6)

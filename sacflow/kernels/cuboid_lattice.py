@@ -17,7 +17,7 @@ lateral offsets folded to ``x1, x2 ≥ 0`` by the kernels' parities another quar
 with ``s_c = +1`` for an even number of upper bounds among the corner's coordinates, as in
 :func:`sacflow.kernels.cuboid._corner_sums`. The 18 corner sums (``T``, ``L``, ``Q``, ``M``,
 ``N`` there) enter the stress linearly; the 6 × 6 stress columns are one matrix product of them
-with the coefficients that :func:`sacflow.kernels.cuboid._stress_from_sums` defines, taken from
+with the coefficients that :func:`sacflow.kernels.cuboid.stress_from_sums` defines, taken from
 it (one source of the formulas). Inside the cuboid ``−C:ε*`` is added as there.
 
 The same corner functions, the same differences: results equal the corner-by-corner evaluation
@@ -32,7 +32,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from sacflow.kernels.cuboid import PARITY, _checked, _stress_from_sums, stiffness_matrix
+from sacflow.kernels.cuboid import PARITY, checked_half_sizes, stiffness_matrix, stress_from_sums
 from sacflow.kernels.lattice import FoldedAxis
 
 __all__ = ["CuboidLattice", "corner_sum_coefficients"]
@@ -50,7 +50,7 @@ _PLANE_CACHE = 4
 def corner_sum_coefficients(nu: float, mu: float) -> np.ndarray:
     """Coefficients ``K[k, c, d]``: stress ``c`` of unit eigenstrain ``d`` per corner sum ``k``.
 
-    :func:`sacflow.kernels.cuboid._stress_from_sums` is linear in the corner sums outside the
+    :func:`sacflow.kernels.cuboid.stress_from_sums` is linear in the corner sums outside the
     cuboid; fed the unit vectors of the 18 sums (order of this module) it returns its matrix.
     """
     basis = np.eye(_SUMS)
@@ -62,7 +62,7 @@ def corner_sum_coefficients(nu: float, mu: float) -> np.ndarray:
     for n, (i, j) in enumerate(_M_PAIRS):
         M[(i, j)] = basis[12 + n]
         M[(j, i)] = basis[15 + n]
-    return _stress_from_sums((T, L, Q, M, N), 0.0, tuple(range(6)), nu, mu)
+    return stress_from_sums((T, L, Q, M, N), 0.0, tuple(range(6)), nu, mu)
 
 
 def _corner_functions(y0: np.ndarray, y1: np.ndarray, y2: float, out: np.ndarray) -> None:
@@ -107,7 +107,7 @@ class CuboidLattice:
 
     def __init__(self, x1: np.ndarray, x2: np.ndarray, half: Sequence[float], nu: float,
                  mu: float):
-        half = _checked(half, nu)
+        half = checked_half_sizes(half, nu)
         self.scale = max(half)
         self.h = tuple(hh / self.scale for hh in half)
         self.nu, self.mu = float(nu), float(mu)
@@ -161,7 +161,8 @@ class CuboidLattice:
         x3s = float(x3) / self.scale
         sums = self._sums(x3s)
         a, b = sums.shape[1:]
-        out = (sums.reshape(_SUMS, a * b).T @ self._coefficients[:, index]).reshape(a, b, -1)
+        out: np.ndarray = (sums.reshape(_SUMS, a * b).T
+                           @ self._coefficients[:, index]).reshape(a, b, -1)
         if abs(x3s) < self.h[2]:
             inside = ((self._axes[0].folded < self.h[0])[:, None]
                       & (self._axes[1].folded < self.h[1])[None, :])
@@ -187,7 +188,8 @@ class CuboidLattice:
                out: np.ndarray | None = None) -> np.ndarray:
         """Mirror folded columns (from :meth:`folded_plane`) onto the grid ``x1 × x2``."""
         full = self._axes[1].unfold(self._axes[0].unfold(folded, 0), 1)
-        return np.multiply(full, signs, out=out)
+        unfolded: np.ndarray = np.multiply(full, signs, out=out)
+        return unfolded
 
     def plane(self, x3: float, columns: Sequence[tuple[int, int]]) -> np.ndarray:
         """Columns ``(c, d)`` at the grid ``x1 × x2`` and depth offset ``x3`` [m].

@@ -1,29 +1,21 @@
-"""FFT back end and discrete-convolution FFT (DC-FFT) for non-periodic linear operators.
+"""FFT back end: cached pyfftw plans of real transforms (pruned, in place, real-to-real).
 
 Conventions
 -----------
-* All operators here are *linear, non-periodic* discrete convolutions between cell-centred grids
-  of equal spacing: ``out[i] = Σ_j K(i + offset - j) · x[j]`` where ``K(d)`` is an influence
-  coefficient evaluated at the integer cell offset ``d`` (one per axis) and ``offset`` is the index
-  of the output grid's first cell on the input grid.
-* DC-FFT (Liu, Wang & Liu, Wear 243 (2000) 101, doi:10.1016/S0043-1648(00)00427-0): the exact
-  coefficients for every offset ``d ∈ [offset − (n_in − 1), offset + n_out − 1]`` are placed in
-  wrap-around order (index ``d mod L``) on a zero-padded grid of length ``L ≥ n_in + n_out − 1``;
-  the input is zero-padded to ``L``; product of spectra; inverse; the output is read at
-  ``(i + offset) mod L``. The result equals direct summation to round-off.
-* FFT normalisation: forward transforms are unnormalised; the ``1/L`` of the inverse is folded into
-  the cached kernel spectra, so ``inverse(forward(x) · K̂)`` needs no extra pass.
+* Forward transforms are unnormalised and so are the inverses (no ``1/N``): the operators fold
+  every normalisation into their cached kernel spectra (:mod:`sacflow.kernels.convolution`,
+  :mod:`sacflow.kernels.eigenstrain`).
 * pyfftw plans and their aligned buffers are built once per operator (FFTW's own wisdom makes
-  re-planning a known shape cheap); ``scipy.fft`` is the fallback when pyfftw is not importable,
-  imported only then (its import is a sizeable part of a campaign worker's start).
+  re-planning a known shape cheap, :mod:`sacflow.kernels.fftw_wisdom`); ``scipy.fft`` is the
+  fallback when pyfftw is not importable, imported only then (its import is a sizeable part of a
+  campaign worker's start).
 """
 
 from __future__ import annotations
 
-import functools
 import os
 import sys
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -35,8 +27,10 @@ from sacflow.machine.environment import fft_threads_from_env, fftw_planner_from_
 _PYFFTW_OPTIONAL = ("dask.array", "scipy.fftpack")
 
 
-def _import_pyfftw():
+def _import_pyfftw() -> Any:
     """Import pyfftw without its dask and scipy interfaces (None without pyfftw).
+
+    pyfftw has no type information: the module is typed ``Any``.
 
     pyfftw's package imports ``pyfftw.interfaces.dask_fft`` whenever dask is installed and
     ``pyfftw.interfaces.scipy_fft`` whenever scipy is, and with them the modules of
@@ -59,18 +53,13 @@ def _import_pyfftw():
 
 
 pyfftw = _import_pyfftw()
+#: A ``pyfftw.FFTW`` plan (pyfftw has no type information).
+FFTWPlan = Any
+#: An index of the transformed block of a buffer (one slice per axis).
+Index = tuple[slice, ...]
 HAVE_PYFFTW = pyfftw is not None
 
-__all__ = [
-    "HAVE_PYFFTW",
-    "Convolution",
-    "RealFFT",
-    "RealToReal",
-    "default_threads",
-    "padded_length",
-    "real_fft",
-    "wraparound_offsets",
-]
+__all__ = ["HAVE_PYFFTW", "RealFFT", "RealToReal", "default_threads"]
 
 
 #: Time limit of one measured 3-D plan [s]: FFTW keeps the best plan found by then. A longer
@@ -96,7 +85,7 @@ def default_threads() -> int:
         return max(1, os.cpu_count() or 1)
 
 
-def _new_plan(*args: Any, **kwargs: Any):
+def _new_plan(*args: Any, **kwargs: Any) -> FFTWPlan:
     """``pyfftw.FFTW(...)``, with the wisdom stored beside the kernel cache imported first.
 
     A measured plan of a known transform is then found at once (:mod:`sacflow.kernels.fftw_wisdom`).
@@ -129,49 +118,6 @@ def _planner(points: int, ndim: int, one_shot: bool = False) -> tuple[str, float
     else:
         flag = "FFTW_MEASURE" if points >= _MEASURED_POINTS else "FFTW_ESTIMATE"
     return flag, (_PLANNING_SECONDS if ndim == 3 else None)
-
-
-def padded_length(n_in: int, n_out: int) -> int:
-    """Smallest FFT-friendly length ≥ ``n_in + n_out − 1`` (no wrap-around aliasing)."""
-    return next_regular(n_in + n_out - 1)
-
-
-def next_regular(n: int) -> int:
-    """Smallest 5-smooth number (2^a 3^b 5^c) ≥ ``n``: the lengths FFTW transforms fastest.
-
-    The same as ``scipy.fft.next_fast_len(n, real=True)`` (checked in the tests), without
-    importing ``scipy.fft``.
-    """
-    if n <= 1:
-        return 1
-    best = 1 << (n - 1).bit_length()  # the power of two: an upper bound
-    p5 = 1
-    while p5 < best:
-        p35 = p5
-        while p35 < best:
-            # smallest p35 · 2^a ≥ n
-            quotient = -(-n // p35)
-            candidate = p35 << (quotient - 1).bit_length()
-            best = min(best, candidate)
-            p35 *= 3
-        p5 *= 5
-    return best
-
-
-def wraparound_offsets(n_in: int, n_out: int, offset: int, length: int) -> np.ndarray:
-    """Integer cell offset ``d`` stored at each index of a wrap-around kernel of ``length``.
-
-    Index ``s`` holds ``d`` with ``d ≡ s (mod length)`` and ``d`` in the range the convolution
-    needs, ``[offset − (n_in − 1), offset + n_out − 1]``; unused indices hold a sentinel outside
-    that range (their coefficients are set to zero by :class:`Convolution`).
-    """
-    lo, hi = offset - (n_in - 1), offset + n_out - 1
-    if hi - lo + 1 > length:
-        raise ValueError(f"padded length {length} too short for offsets [{lo}, {hi}]")
-    s = np.arange(length)
-    d = lo + np.mod(s - lo, length)
-    d[d > hi] = hi + 1  # sentinel: not used by the convolution
-    return d
 
 
 class RealFFT:
@@ -207,9 +153,9 @@ class RealFFT:
     the real-to-complex pass along the last axis needs only the lines inside the input block;
     each following complex pass along an earlier axis needs the lines inside the block of the
     axes not yet transformed (zero-filled beyond the block along its own axis). The inverse runs
-    the same passes in reverse, keeping only the lines that reach the output block. For the
-    DC-FFT grids here (data on half of each axis) this saves about 40 % of a 3-D transform.
-    Requires pyfftw; the scipy fallback transforms everything.
+    the same passes in reverse, keeping only the lines that reach the output block: on the
+    DC-FFT grids (data on half of each axis) a sizeable part of a 3-D transform is skipped
+    (``docs/performance.md``). Requires pyfftw; the scipy fallback transforms everything.
     """
 
     def __init__(
@@ -233,12 +179,15 @@ class RealFFT:
         self.threads = threads or (default_threads() if total >= _THREADED_POINTS else 1)
         spec_shape = self.shape[:-1] + (self.shape[-1] // 2 + 1,)
         self.spectrum_shape = spec_shape
-        self._fwd = self._inv = None
-        self._fwd_stages: list | None = None
-        self._inv_stages: list | None = None
+        self._fwd: FFTWPlan | None = None
+        self._inv: FFTWPlan | None = None
+        self._fwd_stages: list[tuple[Index | None, FFTWPlan]] | None = None
+        self._inv_stages: list[FFTWPlan] | None = None
         self._real_written = False
         self._in_place = False
-        self._real_tail: tuple | None = None
+        self._real_tail: Index | None = None
+        self.real: np.ndarray
+        self.spectrum: np.ndarray
         if HAVE_PYFFTW:
             self.spectrum = pyfftw.empty_aligned(spec_shape, dtype="complex128")
             self._in_place = in_place
@@ -281,17 +230,18 @@ class RealFFT:
             return tuple(int(e) for e in extent)
         return None
 
-    def _plan(self, a, b, axes, direction: str, destroy: bool = False):
+    def _plan(self, a: np.ndarray, b: np.ndarray, axes: tuple[int, ...], direction: str,
+              destroy: bool = False) -> FFTWPlan:
         flags = (self._planner,) + (("FFTW_DESTROY_INPUT",) if destroy else ())
         return _new_plan(a, b, axes=axes, direction=direction, flags=flags,
                          threads=self.threads, planning_timelimit=self._time_limit)
 
-    def _block(self, extent: Sequence[int | None]) -> tuple:
+    def _block(self, extent: Sequence[int | None]) -> Index:
         """Index of ``[..., :e_1, …]`` over the transformed axes (``None``: whole axis)."""
         lead = (slice(None),) * (len(self.shape) - self.ndim)
         return lead + tuple(slice(None, e) for e in extent)
 
-    def _forward_stages(self, ext: tuple[int, ...]) -> list:
+    def _forward_stages(self, ext: tuple[int, ...]) -> list[tuple[Index | None, FFTWPlan]]:
         k, axes = self.ndim, self.axes
         block = self._block(ext[:-1] + (None,))
         # The lines read by the first pass must be zero beyond the block: the caller keeps the
@@ -299,7 +249,7 @@ class RealFFT:
         tail = self._block(ext[:-1] + (None,))[:-1] + (slice(ext[-1], None),)
         self._real_tail = tail if ext[-1] < self.shape[-1] else None
         first = self._plan(self.real[block], self.spectrum[block], (axes[-1],), "FFTW_FORWARD")
-        stages: list[tuple[tuple | None, Any]] = [(None, first)]
+        stages: list[tuple[Index | None, FFTWPlan]] = [(None, first)]
         for j in range(k - 2, -1, -1):  # complex passes, from the second-to-last axis back
             lines = self._block(ext[:j] + (None,) * (k - j))
             view = self.spectrum[lines]
@@ -310,9 +260,9 @@ class RealFFT:
                            self._plan(view, view, (axes[j],), "FFTW_FORWARD")))
         return stages
 
-    def _inverse_stages(self, ext: tuple[int, ...]) -> list:
+    def _inverse_stages(self, ext: tuple[int, ...]) -> list[FFTWPlan]:
         k, axes = self.ndim, self.axes
-        stages = []
+        stages: list[FFTWPlan] = []
         for j in range(k - 1):  # complex passes, first axis first
             view = self.spectrum[self._block(ext[:j] + (None,) * (k - j))]
             stages.append(self._plan(view, view, (axes[j],), "FFTW_BACKWARD"))
@@ -361,7 +311,7 @@ class RealFFT:
     def nbytes(self) -> int:
         """Bytes held by the buffers (one, shared, when the transform is in place)."""
         shared = np.shares_memory(self.real, self.spectrum)
-        return self.spectrum.nbytes + (0 if shared else self.real.nbytes)
+        return int(self.spectrum.nbytes + (0 if shared else self.real.nbytes))
 
 
 #: scipy.fft fallback (function name, type) of each FFTW real-to-real kind used here;
@@ -400,7 +350,7 @@ class RealToReal:
             raise ValueError(f"shapes differ: {src.shape} and {dst.shape}")
         self.src, self.dst, self.axis, self.kind = src, dst, axis, kind
         threads = threads or (default_threads() if src.size >= _THREADED_POINTS else 1)
-        self._plan = None
+        self._plan: FFTWPlan | None = None
         if HAVE_PYFFTW:
             # FFTW's estimated real-to-real plans are several times slower than measured ones on
             # batches of strided lines: always measure, within the time limit of 3-D plans (src
@@ -420,182 +370,3 @@ class RealToReal:
             function, kind = _R2R_FALLBACK[self.kind]
             self.dst[...] = getattr(scipy.fft, function)(self.src, type=kind, axis=self.axis)
         return self.dst
-
-
-@functools.lru_cache(maxsize=32)
-def real_fft(shape: tuple[int, ...], ndim: int, threads: int | None = None) -> RealFFT:
-    """Return the cached :class:`RealFFT` for ``shape``: plans are built once per process."""
-    return RealFFT(shape, ndim, threads)
-
-
-def kernel_spectrum(
-    kernel_wrapped: np.ndarray, ndim: int, threads: int | None = None
-) -> np.ndarray:
-    """Spectrum of wrap-around coefficients, scaled by 1/N (the inverse's normalisation).
-
-    Returns a read-only complex array (STYLE 6: cached arrays are immutable).
-    """
-    fft = real_fft(kernel_wrapped.shape, ndim, threads)
-    fft.real[...] = kernel_wrapped
-    spec = fft.forward().copy()
-    spec /= fft.size
-    spec.flags.writeable = False
-    return spec
-
-
-class Convolution:
-    """Non-periodic multi-component convolution between two cell-centred grids (DC-FFT).
-
-    ``out[c, i] = Σ_d Σ_j K_cd(i + offset − j) · x[d, j]`` over the ``ndim`` spatial axes.
-
-    Parameters
-    ----------
-    coefficients : callable
-        ``coefficients(*d) -> array (n_out_comp, n_in_comp, *d.shape)``: the influence
-        coefficients at integer cell offsets ``d`` (one int array per axis, broadcast shapes).
-    in_shape, out_shape : tuple of int
-        Spatial shapes of the input and output grids.
-    offset : tuple of int, optional
-        Index of the output grid's first cell on the input grid (default zeros).
-    threads : int, optional
-        FFT threads.
-    block : int, optional
-        Output components transformed together (default: all). Smaller blocks keep the inverse
-        transform's buffers small, ``block`` padded grids instead of ``n_out_comp`` (the
-        pressure-to-stress operator of a 128 × 128 × 16 grid: 6 MB instead of 100 MB, which
-        also stays in cache), for the same FFT work.
-    cache : (str, mapping), optional
-        Kind and parameters under which the kernel spectra are kept in the disk cache
-        (:func:`sacflow.machine.kernel_cache.cached_arrays`); the parameters must hold everything
-        the
-        coefficients depend on (the grid shapes and offset are added here). Default: computed
-        every time.
-
-    Notes
-    -----
-    Set-up evaluates the coefficients once on the padded grid and caches their spectra; each
-    application costs ``n_in_comp`` forward and ``n_out_comp`` inverse FFTs of the padded grid plus
-    ``n_in_comp · n_out_comp`` spectral multiply-adds.
-    """
-
-    def __init__(
-        self,
-        coefficients: Callable[..., np.ndarray],
-        in_shape: Sequence[int],
-        out_shape: Sequence[int],
-        offset: Sequence[int] | None = None,
-        threads: int | None = None,
-        block: int | None = None,
-        cache: tuple[str, Mapping[str, Any]] | None = None,
-    ):
-        self.in_shape = tuple(int(n) for n in in_shape)
-        self.out_shape = tuple(int(n) for n in out_shape)
-        self.ndim = len(self.in_shape)
-        self.offset = tuple(offset) if offset is not None else (0,) * self.ndim
-        self.padded = tuple(
-            padded_length(ni, no) for ni, no in zip(self.in_shape, self.out_shape, strict=True)
-        )
-        self.threads = threads
-        d = [
-            wraparound_offsets(ni, no, o, length)
-            for ni, no, o, length in zip(
-                self.in_shape, self.out_shape, self.offset, self.padded, strict=True
-            )
-        ]
-
-        def compute() -> dict[str, np.ndarray]:
-            return {"spectra": self._kernel_spectra(coefficients, d, block, threads)}
-
-        if cache is None:
-            spectra = compute()["spectra"]
-        else:
-            from sacflow.machine.kernel_cache import cached_arrays
-
-            kind, parameters = cache
-            key = {**parameters, "in_shape": list(self.in_shape),
-                   "out_shape": list(self.out_shape), "offset": [int(o) for o in self.offset],
-                   "padded": list(self.padded)}
-            spectra = cached_arrays(kind, key, compute)["spectra"]
-        self.spectra = spectra
-        self.spectra.flags.writeable = False
-        self.n_out, self.n_in = self.spectra.shape[:2]
-        self.block = min(block or self.n_out, self.n_out)
-        self._blocks = [(k, min(k + self.block, self.n_out))
-                        for k in range(0, self.n_out, self.block)]
-        self._in_window = (slice(None), *(slice(0, n) for n in self.in_shape))
-        self._out_window = (slice(None),) + tuple(
-            slice(o % length, o % length + no)
-            if o % length + no <= length
-            else np.mod(np.arange(no) + o, length)
-            for no, o, length in zip(self.out_shape, self.offset, self.padded, strict=True)
-        )
-        window = self._out_window[1:]
-        if not all(isinstance(w, slice) for w in window):  # wraps around: index arrays
-            window = np.ix_(*(np.arange(w.start, w.stop) if isinstance(w, slice) else w
-                              for w in window))
-        self._out_index = tuple(window)  # of one output component, on the padded grid
-        # Dedicated buffers: the forward input keeps its zero padding between calls. Pruned
-        # transforms: the input fills the leading block; the output is the leading block when
-        # the window does not wrap around and starts at index 0.
-        prefix_out = all(
-            isinstance(w, slice) and w.start == 0 for w in self._out_window[1:]
-        )
-        self._forward = RealFFT(
-            (self.n_in, *self.padded), self.ndim, threads, in_extent=self.in_shape
-        )
-        self._inverse = RealFFT(
-            (self.block, *self.padded), self.ndim, threads,
-            out_extent=self.out_shape if prefix_out else None,
-        )
-
-    def _kernel_spectra(self, coefficients: Callable[..., np.ndarray], d: list[np.ndarray],
-                        block: int | None, threads: int | None) -> np.ndarray:
-        """Spectra (n_out, n_in, *spectrum) of the coefficients at the wrap-around offsets ``d``.
-
-        Zero where an offset is not used; divided by the padded size (the inverse transform
-        is unnormalised). One block of output components is transformed at a time.
-        """
-        grids = np.meshgrid(*d, indexing="ij", sparse=True)
-        valid = np.ones(self.padded, dtype=bool)
-        for g, no, o in zip(grids, self.out_shape, self.offset, strict=True):
-            valid &= g <= o + no - 1
-        coeffs = np.asarray(coefficients(*grids), dtype=float)
-        n_out, n_in = coeffs.shape[:2]
-        width = min(block or n_out, n_out)
-        coeffs = coeffs.reshape(n_out * n_in, *self.padded)
-        batch = RealFFT((width * n_in, *self.padded), self.ndim, threads, one_shot=True)
-        spectra = np.empty((n_out * n_in, *batch.spectrum_shape[1:]), complex)
-        for k0 in range(0, n_out, width):  # spectra of one block of output components at a time
-            rows = slice(k0 * n_in, min(k0 + width, n_out) * n_in)
-            real = batch.real[: rows.stop - rows.start]
-            real[...] = 0.0
-            np.copyto(real, coeffs[rows], where=valid)  # zero where the offset is not used
-            np.divide(batch.forward()[: rows.stop - rows.start], batch.size, out=spectra[rows])
-        return spectra.reshape(n_out, n_in, *spectra.shape[1:])
-
-    @property
-    def nbytes(self) -> int:
-        """Bytes held by the cached kernel spectra and the FFT buffers."""
-        return self.spectra.nbytes + self._forward.nbytes + self._inverse.nbytes
-
-    def __call__(self, x: np.ndarray) -> np.ndarray:
-        """Apply to ``x`` of shape ``(n_in_comp, *in_shape)`` (or ``in_shape`` if one component).
-
-        Returns a new array ``(n_out_comp, *out_shape)`` (or ``out_shape`` for one component).
-        """
-        single_in = x.ndim == self.ndim
-        self._forward.real[self._in_window] = x.reshape((self.n_in, *self.in_shape))
-        xs = self._forward.forward()
-        out = np.empty((self.n_out, *self.out_shape))
-        for k0, k1 in self._blocks:
-            acc = self._inverse.spectrum[: k1 - k0]
-            np.multiply(self.spectra[k0:k1, 0], xs[0], out=acc)
-            for k in range(1, self.n_in):
-                acc += self.spectra[k0:k1, k] * xs[k]
-            if k1 - k0 < self.block:  # a last, shorter block: the rest of the batch is unused
-                self._inverse.spectrum[k1 - k0:] = 0.0
-            real = self._inverse.inverse()
-            out[k0:k1] = real[(slice(0, k1 - k0), *self._out_index)]
-        if single_in and self.n_out == 1:
-            return out[0]
-        return out

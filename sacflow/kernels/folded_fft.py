@@ -1,8 +1,8 @@
 r"""Lateral spectra of kernels even or odd along x1 and x2, from their values at offsets ≥ 0.
 
 A kernel ``f`` sampled at the whole-cell offsets ``k`` of a wrap-around period ``L``
-(:func:`sacflow.kernels.fft.wraparound_offsets`) and even or odd along an axis has a DFT that
-is real (even) or imaginary (odd), and is fixed by its values at ``k = 0 … ⌊L/2⌋``. For an even
+(:func:`sacflow.kernels.convolution.wraparound_offsets`) and even or odd along an axis has a DFT
+that is real (even) or imaginary (odd), and is fixed by its values at ``k = 0 … ⌊L/2⌋``. For an even
 period ``L = 2M``:
 
 .. math::

@@ -64,7 +64,9 @@ class FoldedAxis:
 
     def difference(self, values: np.ndarray, axis: int) -> np.ndarray:
         """``Δ F``: the lattice values at ``folded + h`` minus those at ``folded − h``."""
-        return np.take(values, self.upper, axis=axis) - np.take(values, self.lower, axis=axis)
+        delta: np.ndarray = (np.take(values, self.upper, axis=axis)
+                             - np.take(values, self.lower, axis=axis))
+        return delta
 
     def unfold(self, values: np.ndarray, axis: int) -> np.ndarray:
         """Values at the folded offsets → values at the offsets ``x`` (without parity signs)."""

@@ -58,7 +58,8 @@ K_23   2c [X L_Z + Y S(Y, X)]
 =====  ===================================================================
 
 Each entry was checked symbolically (∂X ∂Y ∂Z F − σ^B = 0, exact rational arithmetic at random
-points) and the sums are checked against quadrature of Boussinesq's stresses in the tests.
+points) and the sums are checked against quadrature of Boussinesq's stresses in the tests
+(:mod:`sacflow.kernels.quadrature_reference`).
 
 Branches and singular lines.  S is evaluated as the single arctangent
 ``atan2(XY (X² + Y²) / (R + Z), X² R + Z Y²)``: the subtraction formula holds without a branch
@@ -108,22 +109,14 @@ References
 
 from __future__ import annotations
 
-from collections.abc import Callable
-
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from sacflow.kernels.surface import boussinesq_stress
+#: Float and index arrays of the corner lattices.
+FloatArray = NDArray[np.float64]
+IndexArray = NDArray[np.intp]
 
-__all__ = [
-    "SHEAR_WEIGHTS",
-    "cuboid_surface_displacement",
-    "surface_displacement_by_quadrature",
-]
-
-#: Weights of the components (11, 22, 33, 12, 13, 23) in ε*:σ with tensor shear components.
-SHEAR_WEIGHTS = np.array([1.0, 1.0, 1.0, 2.0, 2.0, 2.0])
-SHEAR_WEIGHTS.setflags(write=False)
+__all__ = ["cuboid_surface_displacement"]
 
 _BLOCK = 1 << 16  # points per block in the 8-corner loop (bounded temporaries)
 _SEPARABLE_MIN = 512  # below this many outputs the plain corner loop is used
@@ -134,7 +127,7 @@ _SEPARABLE_MIN = 512  # below this many outputs the plain corner loop is used
 # ---------------------------------------------------------------------------------------------
 
 
-def _ln_sum(a: NDArray[np.float64], r: NDArray[np.float64], rest2: NDArray[np.float64]):
+def _ln_sum(a: FloatArray, r: FloatArray, rest2: FloatArray) -> FloatArray:
     """ln(a + r) with r = sqrt(a² + rest2) >= |a|, without cancellation for a < 0.
 
     Where the argument is 0 (only when its coefficient in the corner functions is 0 too)
@@ -142,10 +135,12 @@ def _ln_sum(a: NDArray[np.float64], r: NDArray[np.float64], rest2: NDArray[np.fl
     """
     with np.errstate(divide="ignore", invalid="ignore"):
         arg = np.where(a >= 0.0, a + r, rest2 / (r - a))
-    return np.log(np.where(arg > 0.0, arg, 1.0))
+    logarithm: FloatArray = np.log(np.where(arg > 0.0, arg, 1.0))
+    return logarithm
 
 
-def _corner_functions(X, Y, Z, nu: float) -> NDArray[np.float64]:
+def _corner_functions(X: FloatArray, Y: FloatArray, Z: FloatArray | float,
+                      nu: float) -> FloatArray:
     """Triple antiderivatives of the six columns of K at the corners (X, Y, Z), Z >= 0.
 
     Returns an array (..., 6) of the broadcast shape of X, Y, Z (module docstring table).
@@ -181,7 +176,8 @@ def _corner_functions(X, Y, Z, nu: float) -> NDArray[np.float64]:
 # ---------------------------------------------------------------------------------------------
 
 
-def _corner_loop(x1, x2, c3, h1, h2, h3, nu: float, shape) -> NDArray[np.float64]:
+def _corner_loop(x1: FloatArray, x2: FloatArray, c3: FloatArray, h1: FloatArray, h2: FloatArray,
+                 h3: FloatArray, nu: float, shape: tuple[int, ...]) -> FloatArray:
     """Plain 8-corner sums, point by point, in blocks of at most ``_BLOCK`` points."""
     flat = [np.broadcast_to(a, shape).ravel() for a in (x1, x2, c3, h1, h2, h3)]
     n = flat[0].size
@@ -211,7 +207,8 @@ def _varying_axes(nd: int, *shapes: tuple[int, ...]) -> tuple[int, ...]:
     return tuple(i for i, n in enumerate(b) if n > 1)
 
 
-def _group(a, b, axes, shape) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def _group(a: FloatArray, b: FloatArray, axes: tuple[int, ...], shape: tuple[int, ...]
+           ) -> tuple[FloatArray, FloatArray]:
     """Values of (a, b) along their own axes, flattened in C order."""
     nd = len(shape)
     idx = tuple(slice(None) if i in axes else 0 for i in range(nd))
@@ -221,7 +218,7 @@ def _group(a, b, axes, shape) -> tuple[NDArray[np.float64], NDArray[np.float64]]
     return np.ravel(av), np.ravel(bv)
 
 
-def _merged_unique(lo, hi):
+def _merged_unique(lo: FloatArray, hi: FloatArray) -> tuple[FloatArray, IndexArray, IndexArray]:
     """Distinct values of lo ∪ hi (values within a few ulp merged) and the indices of lo, hi."""
     v = np.concatenate([lo, hi])
     order = np.argsort(v, kind="stable")
@@ -235,7 +232,8 @@ def _merged_unique(lo, hi):
     return sv[new], inv[: lo.size], inv[lo.size :]
 
 
-def _fold(a, b):
+def _fold(a: FloatArray, b: FloatArray
+          ) -> tuple[FloatArray, FloatArray, IndexArray, NDArray[np.bool_]]:
     """Distinct (|a|, b) pairs, the index of each entry among them, and whether a < 0.
 
     K is even or odd in x1 (and in x2), so entries at −a reuse the value at +a.
@@ -244,7 +242,8 @@ def _fold(a, b):
     return pairs[:, 0], pairs[:, 1], inv.ravel(), a < 0.0
 
 
-def _lattice_plane(X, Y, z: float, nu: float, buf) -> NDArray[np.float64]:
+def _lattice_plane(X: FloatArray, Y: FloatArray, z: float, nu: float, buf: FloatArray
+                   ) -> FloatArray:
     """Corner functions on the lattice X × Y at depth z, in row blocks, into ``buf``."""
     rows = max(1, _BLOCK // max(1, Y.size))
     for start in range(0, X.size, rows):
@@ -253,7 +252,9 @@ def _lattice_plane(X, Y, z: float, nu: float, buf) -> NDArray[np.float64]:
     return buf
 
 
-def _separable(x1, x2, c3, h1, h2, h3, nu: float, shape, axes) -> NDArray[np.float64]:
+def _separable(x1: FloatArray, x2: FloatArray, c3: FloatArray, h1: FloatArray, h2: FloatArray,
+               h3: FloatArray, nu: float, shape: tuple[int, ...],
+               axes: tuple[tuple[int, ...], ...]) -> FloatArray:
     """Corner sums on the lattice of distinct corner coordinates, one depth plane at a time.
 
     Lateral offsets are folded to x1, x2 >= 0 by the parities of K (components 12, 13 odd in
@@ -395,124 +396,3 @@ def cuboid_surface_displacement(
     if disjoint and int(np.prod(shape)) >= _SEPARABLE_MIN:
         return _separable(x1, x2, c3, h1, h2, h3, float(nu), shape, axes)
     return _corner_loop(x1, x2, c3, h1, h2, h3, float(nu), shape)
-
-
-# ---------------------------------------------------------------------------------------------
-# quadrature reference
-# ---------------------------------------------------------------------------------------------
-
-
-def _graded_panels(scale: float, ratio: float = 0.3) -> NDArray[np.float64]:
-    """Breakpoints of [0, 1] graded geometrically toward 0 down to about ``scale``."""
-    if scale >= ratio:
-        return np.array([0.0, 1.0])
-    n = int(np.ceil(np.log(scale) / np.log(ratio)))
-    return np.concatenate(([0.0], ratio ** np.arange(n, -1, -1)))
-
-
-def _gauss(breaks: NDArray[np.float64], t, w) -> tuple[NDArray[np.float64], ...]:
-    a, b = breaks[:-1, None], breaks[1:, None]
-    return (0.5 * (a + b) + 0.5 * (b - a) * t).ravel(), (0.5 * (b - a) * w).ravel()
-
-
-def _pyramid_rule(apex, edge, axis: int, dist: float, order: int):
-    """Nodes and weights of the pyramid of a box with vertex ``apex`` and edge vector ``edge``.
-
-    The pyramid has its apex at ``apex`` and its base on the face opposite to it normal to
-    ``axis``; x = apex + s (e_k, u e_i, v e_j) (Duffy), Jacobian s² |e_1 e_2 e_3|, which
-    cancels the 1/r² singularity of the point-force stress at the apex.  s is graded toward 0
-    when the load point is at a distance ``dist`` > 0 from the apex, u and v when the pyramid
-    is flat (|e_k| small against |e_i|).
-    """
-    t, w = np.polynomial.legendre.leggauss(order)
-    i, j = (axis + 1) % 3, (axis + 2) % 3
-    e = np.abs(edge)
-    length = float(np.linalg.norm(edge))
-    s_br = np.array([0.0, 1.0]) if dist == 0.0 else _graded_panels(0.1 * dist / length)
-    s, ws = _gauss(s_br, t, w)
-    u, wu = _gauss(_graded_panels(0.25 * e[axis] / e[i]), t, w)
-    v, wv = _gauss(_graded_panels(0.25 * e[axis] / e[j]), t, w)
-    S, U, V = np.meshgrid(s, u, v, indexing="ij")
-    W = (ws[:, None, None] * wu[None, :, None] * wv[None, None, :]) * S * S
-    pts = np.empty((*S.shape, 3))
-    pts[..., axis] = apex[axis] + S * edge[axis]
-    pts[..., i] = apex[i] + S * U * edge[i]
-    pts[..., j] = apex[j] + S * V * edge[j]
-    return pts.reshape(-1, 3), W.ravel() * float(np.prod(e))
-
-
-def surface_displacement_by_quadrature(
-    x1: float,
-    x2: float,
-    c3: float,
-    half: tuple[float, float, float],
-    nu: float,
-    source: ArrayLike,
-    order: int = 12,
-    integrand: Callable[[NDArray, NDArray, NDArray], NDArray] | None = None,
-) -> float | NDArray[np.float64]:
-    r"""Slow reference: u3 at (x1, x2, 0) by quadrature of Boussinesq's stress over a cuboid.
-
-    Computes :math:`u_3 = \int ε^*_{ij} σ^B_{ij}(ξ - x)\, dξ` over the cuboid
-    |ξ1| <= half[0], |ξ2| <= half[1], |ξ3 − c3| <= half[2] by tensor-product Gauss–Legendre
-    rules, independently of :func:`cuboid_surface_displacement`.  The cuboid is split at the
-    point p nearest to the load point A (up to 8 sub-boxes with p as a vertex); each sub-box is
-    split into the three pyramids with apex p and a far face as base, mapped to the unit cube
-    (Duffy transform, Jacobian ∝ s², which cancels the 1/r² singularity when A = p, i.e. when
-    the cuboid touches the surface below A); panels are graded geometrically toward the apex
-    in s when A is near but outside the cuboid, and in the base coordinates of flat pyramids.
-
-    Parameters
-    ----------
-    x1, x2 : float
-        Surface point relative to the lateral centre of the cuboid [m].
-    c3 : float
-        Depth of the cuboid centre [m], c3 >= half[2].
-    half : (float, float, float)
-        Half sizes [m] (> 0).
-    nu : float
-        Poisson's ratio (used by the default integrand).
-    source : array_like, shape (6,) or (n, 6)
-        Eigenstrain(s), tensor components (11, 22, 33, 12, 13, 23); shear pairs are counted
-        twice.
-    order : int, optional
-        Gauss–Legendre points per panel and direction.
-    integrand : callable, optional
-        ``f(X, Y, Z) -> (..., 6)``, the stress-like field of the unit force at the origin
-        contracted with ε*; default ``boussinesq_stress(X, Y, Z, nu)``.
-
-    Returns
-    -------
-    float or ndarray, shape (n,)
-        u3 [m], positive into the body.
-    """
-    h = np.asarray(half, dtype=float)
-    lo = np.array([-h[0] - x1, -h[1] - x2, c3 - h[2]])
-    hi = np.array([h[0] - x1, h[1] - x2, c3 + h[2]])
-    if lo[2] < -1e-12 * max(abs(c3), h[2]):
-        raise ValueError("the cuboid must lie in the half-space: c3 - half[2] >= 0")
-    lo[2] = max(lo[2], 0.0)
-    p = np.clip(0.0, lo, hi)
-    dist = float(np.linalg.norm(p))
-    if integrand is None:
-
-        def integrand(a, b, c):
-            return boussinesq_stress(a, b, c, nu)
-
-    pts, wts = [], []
-    for c1 in (lo[0], hi[0]):
-        for c2 in (lo[1], hi[1]):
-            for c3_ in (lo[2], hi[2]):
-                edge = np.array([c1, c2, c3_]) - p
-                if np.any(edge == 0.0):
-                    continue  # empty sub-box (p on that face)
-                for axis in range(3):
-                    q, wq = _pyramid_rule(p, edge, axis, dist, order)
-                    pts.append(q)
-                    wts.append(wq)
-    P = np.concatenate(pts)
-    Wt = np.concatenate(wts)
-    sig = Wt @ integrand(P[:, 0], P[:, 1], np.maximum(P[:, 2], 0.0))
-    src = np.asarray(source, dtype=float)
-    res = (src * SHEAR_WEIGHTS) @ sig
-    return float(res) if res.ndim == 0 else res

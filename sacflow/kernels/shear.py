@@ -70,10 +70,12 @@ References
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from sacflow.kernels.surface import _CORNERS, _as_float, _check_depth, _safe_div
+from sacflow.kernels.load_geometry import CORNERS, point_force, rectangle_points, safe_div
 
 __all__ = ["cerruti_stress", "rectangle_shear_stress", "surface_load_stress_coefficients",
            "traction_stress"]
@@ -102,15 +104,8 @@ def cerruti_stress(x1: ArrayLike, x2: ArrayLike, x3: ArrayLike, nu: float) -> ND
     ndarray, shape (..., 6)
         Stress per unit force [1/m²] (multiply by Q [N]), order (11, 22, 33, 12, 13, 23).
     """
-    x, y, z = _as_float(x1, x2, x3)
-    _check_depth(z)
-    shape = np.broadcast_shapes(x.shape, y.shape, z.shape)
-    r = np.sqrt(x * x + y * y + z * z)
-    r3 = r**3
-    r5 = r3 * r * r
-    rz = r + z
+    x, y, z, shape, r, r3, r5, rz = point_force(x1, x2, x3)
     k = 1.0 - 2.0 * nu
-    c = 1.0 / (2.0 * np.pi)
     a1, a2, a3 = -x / r3, -y / r3, -z / r3
     a11 = 3.0 * x * x / r5 - 1.0 / r3
     a12 = 3.0 * x * y / r5
@@ -120,13 +115,26 @@ def cerruti_stress(x1: ArrayLike, x2: ArrayLike, x3: ArrayLike, nu: float) -> ND
     d111 = (-3.0 * x / r3 + 3.0 * x**3 / r5) + k * (3.0 * x * g - x**3 * h)
     d122 = (-x / r3 + 3.0 * x * y * y / r5) + k * (x * g - x * y * y * h)
     d112 = (-y / r3 + 3.0 * x * x * y / r5) + k * (y * g - x * x * y * h)
+    d = {"a1": a1, "a2": a2, "a3": a3, "a11": a11, "a12": a12, "a13": a13, "d111": d111,
+         "d122": d122, "d112": d112}
+    return _stress_from_potentials(d, z, shape, nu)
+
+
+def _stress_from_potentials(d: dict[str, NDArray[np.float64]], z: NDArray[np.float64],
+                            shape: tuple[int, ...], nu: float) -> NDArray[np.float64]:
+    """Assemble σ from the derivatives of the potentials A and D (module docstring).
+
+    ``d`` holds A,1 A,2 A,3 A,11 A,12 A,13 D,111 D,122 D,112 (keys ``a1`` … ``d112``) of a
+    point force or their corner sums over a rectangle; ``shape``: that of the field points.
+    """
+    c = 1.0 / (2.0 * np.pi)
     out = np.empty((*shape, 6))
-    out[..., 0] = c * (2.0 * (1.0 + nu) * a1 - d111)
-    out[..., 1] = c * (2.0 * nu * a1 - d122)
-    out[..., 2] = -c * z * a13
-    out[..., 3] = c * (a2 - d112)
-    out[..., 4] = c * (a3 - z * a11)
-    out[..., 5] = -c * z * a12
+    out[..., 0] = c * (2.0 * (1.0 + nu) * d["a1"] - d["d111"])
+    out[..., 1] = c * (2.0 * nu * d["a1"] - d["d122"])
+    out[..., 2] = -c * z * d["a13"]
+    out[..., 3] = c * (d["a2"] - d["d112"])
+    out[..., 4] = c * (d["a3"] - z * d["a11"])
+    out[..., 5] = -c * z * d["a12"]
     return out
 
 
@@ -143,7 +151,7 @@ def _asinh_ratio(num: NDArray[np.float64], other: NDArray[np.float64],
     size = np.abs(num)
     limit = np.where(size == 0.0, 0.0,
                      np.sign(num) * np.log(2.0 * np.where(size == 0.0, 1.0, size)))
-    return np.where(base == 0.0, limit, np.arcsinh(_safe_div(num, base)))
+    return np.where(base == 0.0, limit, np.arcsinh(safe_div(num, base)))
 
 
 def rectangle_shear_stress(
@@ -181,14 +189,12 @@ def rectangle_shear_stress(
     ValueError
         If any x3 < 0.
     """
-    x1, x2, z, h1, h2 = _as_float(x1, x2, x3, half1, half2)
-    _check_depth(z)
-    shape = np.broadcast_shapes(x1.shape, x2.shape, z.shape, h1.shape, h2.shape)
+    x1, x2, z, h1, h2, shape = rectangle_points(x1, x2, x3, half1, half2)
     k = 1.0 - 2.0 * nu
     names = ("a1", "a2", "a3", "a11", "a12", "a13", "d111", "d122", "d112")
     d = {name: np.zeros(shape) for name in names}
     with np.errstate(divide="ignore", invalid="ignore"):
-        for s1, s2, w in _CORNERS:
+        for s1, s2, w in CORNERS:
             X = x1 + s1 * h1
             Y = x2 + s2 * h2
             XX = X * X
@@ -198,22 +204,14 @@ def rectangle_shear_stress(
             d["a1"] += w * ln_y
             d["a2"] += w * _asinh_ratio(X, Y, z)
             d["a3"] += w * -np.arctan2(X * Y, z * rho)
-            d["a11"] += w * -_safe_div(X * Y, ax * rho)
-            d["a12"] += w * _safe_div(np.ones_like(rho), rho)
-            d["a13"] += w * -_safe_div(z * Y, ax * rho)
-            y_rz = _safe_div(Y, rho + z)
-            d["d111"] += w * (2.0 * nu * ln_y - _safe_div(XX * Y, ax * rho) + k * y_rz)
-            d["d122"] += w * (_safe_div(Y, rho) - k * y_rz)
-            d["d112"] += w * (_safe_div(X, rho) - k * _safe_div(X, rho + z))
-    c = 1.0 / (2.0 * np.pi)
-    out = np.empty((*shape, 6))
-    out[..., 0] = c * (2.0 * (1.0 + nu) * d["a1"] - d["d111"])
-    out[..., 1] = c * (2.0 * nu * d["a1"] - d["d122"])
-    out[..., 2] = -c * z * d["a13"]
-    out[..., 3] = c * (d["a2"] - d["d112"])
-    out[..., 4] = c * (d["a3"] - z * d["a11"])
-    out[..., 5] = -c * z * d["a12"]
-    return out
+            d["a11"] += w * -safe_div(X * Y, ax * rho)
+            d["a12"] += w * safe_div(np.ones_like(rho), rho)
+            d["a13"] += w * -safe_div(z * Y, ax * rho)
+            y_rz = safe_div(Y, rho + z)
+            d["d111"] += w * (2.0 * nu * ln_y - safe_div(XX * Y, ax * rho) + k * y_rz)
+            d["d122"] += w * (safe_div(Y, rho) - k * y_rz)
+            d["d112"] += w * (safe_div(X, rho) - k * safe_div(X, rho + z))
+    return _stress_from_potentials(d, z, shape, nu)
 
 
 def traction_stress(
@@ -249,10 +247,10 @@ def traction_stress(
 def surface_load_stress_coefficients(
     cell: tuple[float, float], depths: NDArray[np.float64], nu: float,
     traction: tuple[float, float] | None = None,
-):
+) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
     """Influence coefficients of a cell's unit pressure on the stress at a set of depths.
 
-    For :class:`sacflow.kernels.fft.Convolution`: ``coefficients(d1, d2)`` at integer cell
+    For :class:`sacflow.kernels.convolution.Convolution`: ``coefficients(d1, d2)`` at integer cell
     offsets (sparse grids) returns ``(6 · len(depths), 1, *shape)``, layer-major, six
     components per layer: Love's rectangle (:func:`sacflow.kernels.surface.rectangle_stress_grid`)
     and, with a ``traction`` (t1, t2) per unit pressure, its shear traction's stresses

@@ -83,36 +83,14 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from sacflow.kernels.load_geometry import CORNERS, as_float, point_force, rectangle_points, safe_div
+
 __all__ = [
     "boussinesq_displacement",
     "boussinesq_stress",
     "rectangle_displacement",
     "rectangle_stress",
 ]
-
-_CORNERS: tuple[tuple[float, float, float], ...] = (
-    (1.0, 1.0, 1.0),
-    (1.0, -1.0, -1.0),
-    (-1.0, 1.0, -1.0),
-    (-1.0, -1.0, 1.0),
-)
-"""(sign of h1, sign of h2, weight) of the four corners in the corner sum."""
-
-
-def _as_float(*arrays: ArrayLike) -> list[NDArray[np.float64]]:
-    return [np.asarray(a, dtype=np.float64) for a in arrays]
-
-
-def _check_depth(x3: NDArray[np.float64]) -> None:
-    if np.any(x3 < 0.0):
-        raise ValueError("x3 is the depth below the surface and must be >= 0")
-
-
-def _safe_div(num: NDArray[np.float64], den: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Divide num by den, with 0 where den == 0 (limits the callers know to be 0 or irrelevant)."""
-    zero = den == 0.0
-    return np.where(zero, 0.0, num / np.where(zero, 1.0, den))
-
 
 def _x_asinh(x: NDArray[np.float64], y: NDArray[np.float64]) -> NDArray[np.float64]:
     """Return x asinh(y/|x|), continuous with value 0 at x = 0."""
@@ -150,9 +128,9 @@ def rectangle_displacement(
         f [m], broadcast shape of the inputs, float64.  Finite everywhere, including on the
         rectangle's edges and corners (f is continuous there).
     """
-    x1, x2, h1, h2 = _as_float(x1, x2, half1, half2)
+    x1, x2, h1, h2 = as_float(x1, x2, half1, half2)
     f = np.zeros(np.broadcast_shapes(x1.shape, x2.shape, h1.shape, h2.shape))
-    for s1, s2, w in _CORNERS:
+    for s1, s2, w in CORNERS:
         X = x1 + s1 * h1
         Y = x2 + s2 * h2
         f = f + w * (_x_asinh(X, Y) + _x_asinh(Y, X))
@@ -195,12 +173,10 @@ def rectangle_stress(
     ValueError
         If any x3 < 0.
     """
-    x1, x2, z, h1, h2 = _as_float(x1, x2, x3, half1, half2)
-    _check_depth(z)
-    shape = np.broadcast_shapes(x1.shape, x2.shape, z.shape, h1.shape, h2.shape)
+    x1, x2, z, h1, h2, shape = rectangle_points(x1, x2, x3, half1, half2)
     # second derivatives of ψ1 and φ1 (corner sums)
     d = {k: np.zeros(shape) for k in _RECTANGLE_TERMS}
-    for s1, s2, w in _CORNERS:
+    for s1, s2, w in CORNERS:
         for key, term in _rectangle_corner_terms(x1 + s1 * h1, x2 + s2 * h2, z).items():
             d[key] += w * term
     d["p33"] = -(d["p11"] + d["p22"])  # φ1 is harmonic
@@ -211,7 +187,9 @@ def rectangle_stress(
 _RECTANGLE_TERMS = ("p3", "p11", "p22", "p12", "p13", "p23", "s11", "s22", "s12")
 
 
-def _rectangle_corner_terms(X, Y, z) -> dict[str, NDArray[np.float64]]:
+def _rectangle_corner_terms(X: NDArray[np.float64], Y: NDArray[np.float64],
+                            z: NDArray[np.float64] | np.float64
+                            ) -> dict[str, NDArray[np.float64]]:
     """Corner functions of :func:`rectangle_stress` at one corner (``X, Y``: offsets from it)."""
     z2 = z * z
     XX, YY, XY = X * X, Y * Y, X * Y
@@ -219,14 +197,14 @@ def _rectangle_corner_terms(X, Y, z) -> dict[str, NDArray[np.float64]]:
     a1 = XX + z2
     a2 = YY + z2
     with np.errstate(divide="ignore", invalid="ignore"):
-        num = _safe_div(XY * (XX + YY), rho + z)
+        num = safe_div(XY * (XX + YY), rho + z)
         return {
             "p3": -np.arctan2(XY, z * rho),
-            "p11": -_safe_div(XY, a1 * rho),
-            "p22": -_safe_div(XY, a2 * rho),
-            "p12": _safe_div(np.ones_like(rho), rho),
-            "p13": -_safe_div(z * Y, a1 * rho),
-            "p23": -_safe_div(z * X, a2 * rho),
+            "p11": -safe_div(XY, a1 * rho),
+            "p22": -safe_div(XY, a2 * rho),
+            "p12": safe_div(np.ones_like(rho), rho),
+            "p13": -safe_div(z * Y, a1 * rho),
+            "p23": -safe_div(z * X, a2 * rho),
             "s11": np.arctan2(num, XX * rho + z * YY),
             "s22": np.arctan2(num, YY * rho + z * XX),
             "s12": np.log(rho + z),
@@ -326,23 +304,19 @@ def boussinesq_stress(
     ndarray, shape (..., 6)
         Stress per unit force [1/m²] (multiply by P [N]), order (11, 22, 33, 12, 13, 23).
     """
-    x1, x2, z = _as_float(x1, x2, x3)
-    _check_depth(z)
-    shape = np.broadcast_shapes(x1.shape, x2.shape, z.shape)
-    R = np.sqrt(x1 * x1 + x2 * x2 + z * z)
-    R3 = R**3
-    R5 = R3 * R * R
-    Rz = R + z
+    x1, x2, z, shape, R, R3, R5, Rz = point_force(x1, x2, x3)
     k = 1.0 - 2.0 * nu
     c = 1.0 / (2.0 * np.pi)
     a = 1.0 / (R * Rz)  # diagonal part of ψ1,αβ
     b = (2.0 * R + z) / (R3 * Rz * Rz)  # x_α x_β part of ψ1,αβ
     iso = -nu * z / (np.pi * R3)
 
-    def s_ab(xa, xb, delta: float) -> NDArray[np.float64]:
+    def s_ab(xa: NDArray[np.float64], xb: NDArray[np.float64], delta: float
+             ) -> NDArray[np.float64]:
         psi = delta * a - xa * xb * b
         phi = 3.0 * xa * xb / R5 - delta / R3
-        return delta * iso - c * (k * psi + z * phi)
+        stress: NDArray[np.float64] = delta * iso - c * (k * psi + z * phi)
+        return stress
 
     out = np.empty((*shape, 6))
     out[..., 0] = s_ab(x1, x1, 1.0)
@@ -383,15 +357,12 @@ def boussinesq_displacement(
     ndarray, shape (..., 3)
         (u1, u2, u3) per unit force [m/N]; u3 positive into the body.
     """
-    x1, x2, z = _as_float(x1, x2, x3)
-    _check_depth(z)
-    shape = np.broadcast_shapes(x1.shape, x2.shape, z.shape)
+    x1, x2, z, shape, R, R3, _, Rz = point_force(x1, x2, x3)
     G = E / (2.0 * (1.0 + nu))
-    R = np.sqrt(x1 * x1 + x2 * x2 + z * z)
     c = 1.0 / (4.0 * np.pi * G)
-    lateral = z / R**3 - (1.0 - 2.0 * nu) / (R * (R + z))
+    lateral = z / R3 - (1.0 - 2.0 * nu) / (R * Rz)
     out = np.empty((*shape, 3))
     out[..., 0] = c * x1 * lateral
     out[..., 1] = c * x2 * lateral
-    out[..., 2] = c * (2.0 * (1.0 - nu) / R + z * z / R**3)
+    out[..., 2] = c * (2.0 * (1.0 - nu) / R + z * z / R3)
     return out

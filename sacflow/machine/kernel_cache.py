@@ -15,7 +15,7 @@ arrays are small (:data:`MIN_CACHED_BYTES`) are not stored. Size limit:
 entry larger than the limit is not stored. ``sacflow cache info`` lists the entries,
 ``sacflow cache clear`` removes them (and FFTW's wisdom files, :mod:`sacflow.kernels.fftw_wisdom`).
 The arrays' files are written past the page cache where the system allows it
-(:func:`_write_npy`).
+(:func:`write_npy`).
 
 Safe concurrent use (campaign workers share the cache): an entry is written into a private
 temporary directory, flushed, and renamed into place in one step; when two processes compute
@@ -70,8 +70,9 @@ _KIND = re.compile(r"^[a-z0-9_]+$")
 #: Alignment of the arrays' files and of the writes that bypass the page cache (``O_DIRECT``:
 #: file offsets, lengths and buffers in whole blocks of the device; 4096 covers 512 and 4096).
 _DIRECT_ALIGN = 4096
-#: Bytes copied into the aligned bounce buffer and written per call.
-_DIRECT_CHUNK = 8 << 20
+#: Bytes copied into the aligned bounce buffer and written per call (the tests make it small so
+#: that writes cross chunk and block boundaries).
+DIRECT_CHUNK_BYTES = 8 << 20
 #: FFTW's wisdom files (:mod:`sacflow.kernels.fftw_wisdom`) and their temporaries.
 _WISDOM = re.compile(r"^\.?fftw-wisdom-[0-9a-f]{16}\.json(?:\..+)?$")
 _LEFTOVER = re.compile(r"^\.(?:[a-z0-9_]+-[0-9a-f]{24}\..+|trash-[a-z0-9_]+-[0-9a-f]{24}-\d+)$")
@@ -144,7 +145,7 @@ def _npy_header(array: np.ndarray) -> bytes:
     return prefix + (size - len(prefix) - 2).to_bytes(2, "little") + body
 
 
-def _write_npy(path: Path, array: np.ndarray) -> None:
+def write_npy(path: Path, array: np.ndarray) -> None:
     """Write ``array`` (C-contiguous) as a ``.npy`` file, flushed to the disk.
 
     Written with ``O_DIRECT`` where the system and the file system allow it: the bytes go from
@@ -175,9 +176,9 @@ def _write_direct(path: Path, header: bytes, data: np.ndarray) -> bool:
             return False
         raise
     total = len(header) + data.size
-    bounce = mmap.mmap(-1, _DIRECT_CHUNK)  # page-aligned
+    bounce = mmap.mmap(-1, DIRECT_CHUNK_BYTES)  # page-aligned
     try:
-        _copy_out(fd, bounce, header, data)
+        copy_out_direct(fd, bounce, header, data)
         os.ftruncate(fd, total)  # the last block's padding
         os.fsync(fd)
     except OSError as exc:
@@ -190,18 +191,22 @@ def _write_direct(path: Path, header: bytes, data: np.ndarray) -> bool:
     return True
 
 
-def _copy_out(fd: int, bounce: mmap.mmap, header: bytes, data: np.ndarray) -> None:
-    """Write ``header`` and ``data`` through ``bounce`` in whole aligned blocks (zero-padded)."""
+def copy_out_direct(fd: int, bounce: mmap.mmap, header: bytes, data: np.ndarray) -> None:
+    """Write ``header`` and ``data`` through ``bounce`` in whole aligned blocks (zero-padded).
+
+    Fault-injection seam: the tests replace it with one raising ``EINVAL``, as a file system
+    that takes ``O_DIRECT`` at open but refuses the writes does, to check the buffered route.
+    """
     chunk = np.frombuffer(bounce, dtype=np.uint8)
     try:
         chunk[:len(header)] = np.frombuffer(header, dtype=np.uint8)
         filled, done = len(header), 0
         while True:
-            take = min(_DIRECT_CHUNK - filled, data.size - done)
+            take = min(DIRECT_CHUNK_BYTES - filled, data.size - done)
             chunk[filled:filled + take] = data[done:done + take]
             filled += take
             done += take
-            if filled < _DIRECT_CHUNK and done < data.size:
+            if filled < DIRECT_CHUNK_BYTES and done < data.size:
                 continue
             length = _DIRECT_ALIGN * -(-filled // _DIRECT_ALIGN)  # whole blocks
             chunk[filled:length] = 0
@@ -224,7 +229,7 @@ def _store(root: Path, name: str, kind: str, parameters: Mapping[str, Any],
     try:
         shapes: dict[str, dict[str, Any]] = {}
         for array_name, array in arrays.items():
-            _write_npy(temporary / f"{array_name}.npy", np.ascontiguousarray(array))
+            write_npy(temporary / f"{array_name}.npy", np.ascontiguousarray(array))
             shapes[array_name] = {"shape": list(array.shape), "dtype": str(array.dtype)}
         record = {"kind": kind, "parameters": parameters, "arrays": shapes}
         (temporary / _RECORD).write_text(json.dumps(record, indent=1))
@@ -346,12 +351,13 @@ def cached_arrays(kind: str, parameters: Mapping[str, Any],
     return arrays
 
 
-_WARNED: set[str] = set()
+#: Cache directories already warned about as unwritable: one warning each per process.
+WARNED_DIRECTORIES: set[str] = set()
 
 
 def _warn_unwritable(root: Path, exc: OSError) -> None:
-    if str(root) not in _WARNED:
-        _WARNED.add(str(root))
+    if str(root) not in WARNED_DIRECTORIES:
+        WARNED_DIRECTORIES.add(str(root))
         warnings.warn(f"kernel cache {root} cannot be written ({exc}); running without it "
                       "(set SACFLOW_CACHE_DIR to a writable directory, or to 'off')",
                       RuntimeWarning, stacklevel=3)

@@ -6,6 +6,9 @@ with few cores those spinning threads compete with FFTW's threads for the same c
 solve took more than twice as long (``docs/performance.md``). The compute entry points run
 inside :func:`single_threaded_blas`; the limit is lifted again on exit, so a notebook's own BLAS
 work is unaffected.
+
+The loops of the kernels' set-up are shared out between threads here too
+(:func:`contiguous_ranges`, :func:`in_threads`).
 """
 
 from __future__ import annotations
@@ -13,11 +16,14 @@ from __future__ import annotations
 import contextlib
 import functools
 import sys
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import ThreadPoolExecutor
+from typing import Any
 
+import numpy as np
 from threadpoolctl import ThreadpoolController
 
-__all__ = ["single_threaded_blas"]
+__all__ = ["contiguous_ranges", "in_threads", "single_threaded_blas"]
 
 
 def _controller() -> ThreadpoolController:
@@ -43,3 +49,27 @@ def single_threaded_blas() -> Iterator[None]:
     """Limit every loaded BLAS library to one thread inside the block (cheap: cached)."""
     with _controller().limit(limits=1, user_api="blas"):
         yield
+
+
+def contiguous_ranges(count: int, parts: int) -> list[tuple[int, int]]:
+    """Split ``0 … count − 1`` into ``min(parts, count)`` contiguous ranges ``(first, last)``.
+
+    One range per thread: consecutive items stay together (a thread's planes of corner
+    functions serve consecutive depth offsets; its writes touch one block of the result).
+    """
+    parts = max(1, min(parts, count))
+    bounds = np.linspace(0, count, parts + 1).round().astype(int)
+    return [(int(a), int(b)) for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
+
+
+def in_threads(function: Callable[..., None], threads: int,
+               *arguments: Sequence[Any]) -> None:
+    """Call ``function`` on each tuple of ``arguments`` in up to ``threads`` threads, and wait.
+
+    The loops of the kernels' set-up over planes, layers, projections and blocks: numpy,
+    scipy.fft and FFTW release the GIL; each call writes its own part of the result, so the
+    result does not depend on the split.
+    """
+    count = len(arguments[0])
+    with ThreadPoolExecutor(max(1, min(threads, count)), "sacflow-kernels") as pool:
+        list(pool.map(function, *arguments))

@@ -51,7 +51,7 @@ from numpy.typing import NDArray
 from scipy.interpolate import BSpline
 from scipy.optimize import minimize
 
-from sacflow.kernels.fft import Convolution
+from sacflow.kernels.convolution import Convolution
 from sacflow.kernels.shear import surface_load_stress_coefficients
 from sacflow.mechanics.hertz import hertz_subsurface_stress, line_contact_stress
 

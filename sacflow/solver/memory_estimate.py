@@ -5,14 +5,15 @@ and before ``sacflow run`` allocates its operators, not end in numpy's ``_ArrayM
 half-way through the set-up. :func:`estimate_memory` derives the peak resident memory of a run
 from the shapes of the arrays the solver allocates (:class:`sacflow.solver.simulation.Simulation`):
 
-* the contact compliance (DC-FFT on the contact window, :class:`~sacflow.kernels.fft.Convolution`)
-  and the contact solver's window arrays (:mod:`sacflow.mechanics.contact`);
+* the contact compliance (DC-FFT on the contact window,
+  :class:`~sacflow.kernels.convolution.Convolution`) and the contact solver's window arrays
+  (:mod:`sacflow.mechanics.contact`);
 * the pressure → stress operator on the body grid: ``6 nz`` complex kernel spectra on the
   zero-padded body grid, and while it is built the kernel coefficients on that grid;
 * for a plastic body, the eigenstrain operator (:class:`~sacflow.kernels.eigenstrain.
   HalfSpaceEigenstrain`): its persistent spectra and buffers
-  (:func:`~sacflow.kernels.eigenstrain.operator_bytes`) and the transient of its set-up
-  (:func:`~sacflow.kernels.eigenstrain.setup_bytes`);
+  (:func:`~sacflow.kernels.eigenstrain_memory.operator_bytes`) and the transient of its set-up
+  (:func:`~sacflow.kernels.eigenstrain_memory.setup_bytes`);
 * the solver state (plastic strain, residual stress), the working arrays of one increment's
   fixed point, the Anderson history (:mod:`sacflow.solver.anderson`) and the GMRES basis of the
   Newton–Krylov fallback;
@@ -162,7 +163,7 @@ def _real_fft_bytes(batch: int, n1: int, n2: int) -> int:
 
 def _contact(grid: BodyGrid) -> MemoryItem:
     """Compliance spectra and buffers on the contact window, the contact solver's arrays."""
-    from sacflow.kernels.fft import padded_length
+    from sacflow.kernels.convolution import padded_length
 
     nx, ny = grid.window
     p1, p2 = padded_length(nx, nx), padded_length(ny, ny)
@@ -174,7 +175,7 @@ def _contact(grid: BodyGrid) -> MemoryItem:
 
 def _pressure_stress(grid: BodyGrid) -> tuple[MemoryItem, MemoryItem]:
     """Size the pressure → stress operator (spectra, buffers) and the coefficients of its set-up."""
-    from sacflow.kernels.fft import padded_length
+    from sacflow.kernels.convolution import padded_length
 
     n1, n2 = grid.body
     p1, p2 = padded_length(n1, n1), padded_length(n2, n2)
@@ -194,12 +195,12 @@ def _eigenstrain(grid: BodyGrid) -> tuple[MemoryItem, MemoryItem]:
     Persistent (:class:`~sacflow.kernels.eigenstrain.HalfSpaceEigenstrain`), per depth
     frequency: the 21 pair spectra and the 18 surface and correction spectra, all real and on
     half the lateral rows, and the one transform buffer, (6, L1, L2) real and its spectrum
-    (:func:`~sacflow.kernels.eigenstrain.operator_bytes`).
+    (:func:`~sacflow.kernels.eigenstrain_memory.operator_bytes`).
     """
-    from sacflow.kernels.eigenstrain import _padded, operator_bytes, setup_bytes
+    from sacflow.kernels.eigenstrain_memory import operator_bytes, padded_lengths, setup_bytes
 
     shape = (*grid.body, grid.nz)
-    l1, l2, n = _padded(shape)
+    l1, l2, n = padded_lengths(shape)
     operator = MemoryItem(
         "eigenstrain operator", operator_bytes(shape),
         f"residual stress/displacement spectra of {shape[0]} × {shape[1]} × {shape[2]} cuboids "

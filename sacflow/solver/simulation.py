@@ -39,7 +39,7 @@ import numpy as np
 
 from sacflow.config.hardening_laws import hardening_from_schema, kinematic_from_schema
 from sacflow.errors import BoxTooShallowError, ConvergenceError, SacflowError
-from sacflow.kernels.fft import Convolution
+from sacflow.kernels.convolution import Convolution
 from sacflow.kernels.shear import surface_load_stress_coefficients
 from sacflow.kernels.surface import rectangle_displacement
 from sacflow.machine.threads import single_threaded_blas
