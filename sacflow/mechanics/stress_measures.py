@@ -25,7 +25,7 @@ from functools import cache
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from sacflow.kernels.residual_displacement import SHEAR_WEIGHTS
+from sacflow.kernels.cuboid import SHEAR_WEIGHTS
 
 __all__ = ["COMPONENTS", "deviator", "deviatoric_equivalent",
            "double_contraction", "equivalent_strain", "equivalent_stress", "von_mises"]
