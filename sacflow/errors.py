@@ -63,7 +63,7 @@ class ConvergenceError(SacflowError):
             f"(raise solver.{what}_max_iterations or refine the load increments)"
         )
 
-    def __reduce__(self):
+    def __reduce__(self) -> tuple[type, tuple[object, ...]]:
         """Keep the exception picklable (dask workers send it back)."""
         return (
             type(self),
@@ -100,7 +100,7 @@ class BoxTooShallowError(SacflowError):
             f"{new_nz} (sacflow run does this by itself)"
         )
 
-    def __reduce__(self):
+    def __reduce__(self) -> tuple[type, tuple[object, ...]]:
         """Keep the exception picklable (dask workers send it back)."""
         return (type(self), (self.step, self.depth, self.nz, self.new_depth, self.new_nz))
 
