@@ -53,7 +53,7 @@ _ROUNDS_PER_DIMENSION = 100
 
 @numba.njit(cache=True, nogil=True)
 def _subset(candidates: NDArray[np.int64], k: int, mask: int,
-            subset: NDArray[np.int64]) -> int:  # pragma: no cover - compiled
+            subset: NDArray[np.int64]) -> int:
     """Copy the candidates selected by the bits of ``mask`` into ``subset``; return the count."""
     m = 0
     for i in range(k):
@@ -65,7 +65,7 @@ def _subset(candidates: NDArray[np.int64], k: int, mask: int,
 
 @numba.njit(cache=True, nogil=True)
 def _encloses(q: NDArray[np.float64], candidates: NDArray[np.int64], k: int,
-              centre: NDArray[np.float64], r2: float) -> bool:  # pragma: no cover - compiled
+              centre: NDArray[np.float64], r2: float) -> bool:
     """Whether every candidate lies within ``r2 (1 + ENCLOSURE_TOLERANCE)`` of ``centre``."""
     bound = r2 * (1.0 + ENCLOSURE_TOLERANCE)
     for i in range(k):
@@ -75,7 +75,7 @@ def _encloses(q: NDArray[np.float64], candidates: NDArray[np.int64], k: int,
 
 
 @numba.njit(cache=True, nogil=True)
-def _in_hull(lam: NDArray[np.float64], m: int) -> bool:  # pragma: no cover - compiled
+def _in_hull(lam: NDArray[np.float64], m: int) -> bool:
     """Whether every affine coefficient is ≥ −:data:`COEFFICIENT_TOLERANCE`."""
     for i in range(m):
         if lam[i] < -COEFFICIENT_TOLERANCE:
@@ -86,7 +86,7 @@ def _in_hull(lam: NDArray[np.float64], m: int) -> bool:  # pragma: no cover - co
 @numba.njit(cache=True, nogil=True)
 def _smallest_ball(q: NDArray[np.float64], candidates: NDArray[np.int64], k: int,
                    centre: NDArray[np.float64], support: NDArray[np.int64],
-                   weights: NDArray[np.float64]) -> tuple[int, float]:  # pragma: no cover
+                   weights: NDArray[np.float64]) -> tuple[int, float]:
     """Minimum ball of the ``k`` candidates by enumeration of their subsets.
 
     Writes the centre, the support (indices of ``q``) and its affine coefficients; returns the
@@ -117,7 +117,7 @@ def _smallest_ball(q: NDArray[np.float64], candidates: NDArray[np.int64], k: int
 @numba.njit(cache=True, nogil=True)
 def exact_ball(q: NDArray[np.float64], centre: NDArray[np.float64],
                support: NDArray[np.int64], weights: NDArray[np.float64],
-               m: int) -> int:  # pragma: no cover - compiled
+               m: int) -> int:
     """Minimum ball of the rows of ``q`` (n, d), centred and scaled to extent ~1.
 
     Parameters

@@ -25,7 +25,7 @@ __all__ = ["circumcentre", "farthest_point", "solve_small", "squared_distance"]
 
 @numba.njit(cache=True, nogil=True)
 def solve_small(g: NDArray[np.float64], b: NDArray[np.float64], k: int,
-                min_pivot: float) -> bool:  # pragma: no cover - compiled
+                min_pivot: float) -> bool:
     """Solve ``g[:k, :k] x = b[:k]`` in place (partial pivoting): ``x`` overwrites ``b``.
 
     Returns False, leaving ``b`` undefined, if a pivot is not above ``min_pivot`` in magnitude
@@ -59,7 +59,7 @@ def solve_small(g: NDArray[np.float64], b: NDArray[np.float64], k: int,
 
 @numba.njit(cache=True, nogil=True)
 def _gram(q: NDArray[np.float64], support: NDArray[np.int64], m: int, g: NDArray[np.float64],
-          rhs: NDArray[np.float64], diff: NDArray[np.float64]) -> float:  # pragma: no cover
+          rhs: NDArray[np.float64], diff: NDArray[np.float64]) -> float:
     """Gram system of the support differences ``q_i − q_0``; returns its largest diagonal."""
     d = q.shape[1]
     q0 = support[0]
@@ -85,7 +85,7 @@ def _gram(q: NDArray[np.float64], support: NDArray[np.int64], m: int, g: NDArray
 def circumcentre(q: NDArray[np.float64], support: NDArray[np.int64], m: int,
                  cc: NDArray[np.float64], lam: NDArray[np.float64], g: NDArray[np.float64],
                  rhs: NDArray[np.float64], diff: NDArray[np.float64],
-                 rank_tol: float) -> bool:  # pragma: no cover - compiled
+                 rank_tol: float) -> bool:
     """Centre ``cc`` of the sphere through the ``m`` support points lying in their affine hull.
 
     ``cc = q0 + Σ x_i (q_i − q0)`` with ``2 (q_i − q0)·(cc − q0) = |q_i − q0|²``: a Gram
@@ -116,7 +116,7 @@ def circumcentre(q: NDArray[np.float64], support: NDArray[np.int64], m: int,
 
 @numba.njit(cache=True, nogil=True)
 def squared_distance(q: NDArray[np.float64], i: int,
-                     centre: NDArray[np.float64]) -> float:  # pragma: no cover - compiled
+                     centre: NDArray[np.float64]) -> float:
     """``|q_i − centre|²``."""
     acc = 0.0
     for c in range(q.shape[1]):
@@ -126,7 +126,7 @@ def squared_distance(q: NDArray[np.float64], i: int,
 
 @numba.njit(cache=True, nogil=True)
 def farthest_point(q: NDArray[np.float64],
-                   centre: NDArray[np.float64]) -> tuple[int, float]:  # pragma: no cover
+                   centre: NDArray[np.float64]) -> tuple[int, float]:
     """Index of the point of ``q`` farthest from ``centre`` (the first on ties), its ``d²``."""
     far = 0
     best = -1.0

@@ -42,7 +42,7 @@ _STEPS_PER_DIMENSION = 50
 
 
 @numba.njit(cache=True, nogil=True)
-def _start(q: NDArray[np.float64], centre: NDArray[np.float64]) -> int:  # pragma: no cover
+def _start(q: NDArray[np.float64], centre: NDArray[np.float64]) -> int:
     """Centroid into ``centre``; returns the point farthest from it (the first support point)."""
     n, d = q.shape
     for c in range(d):
@@ -57,7 +57,7 @@ def _start(q: NDArray[np.float64], centre: NDArray[np.float64]) -> int:  # pragm
 @numba.njit(cache=True, nogil=True)
 def _walk_stopper(q: NDArray[np.float64], support: NDArray[np.int64], m: int,
                   centre: NDArray[np.float64], step: NDArray[np.float64],
-                  den_min: float) -> tuple[float, int]:  # pragma: no cover - compiled
+                  den_min: float) -> tuple[float, int]:
     """Fraction of ``step`` the centre may walk, and the point that stops it (−1: none).
 
     A point ``p`` reaches the boundary at ``t_p = (r² − |p − c|²) / (2 (q0 − p)·step)``. A
@@ -91,7 +91,7 @@ def _walk_stopper(q: NDArray[np.float64], support: NDArray[np.int64], m: int,
 
 
 @numba.njit(cache=True, nogil=True)
-def _most_negative(lam: NDArray[np.float64], m: int) -> int:  # pragma: no cover - compiled
+def _most_negative(lam: NDArray[np.float64], m: int) -> int:
     """Position of the smallest of ``lam[:m]`` (the first on ties)."""
     worst = 0
     for i in range(1, m):
@@ -101,7 +101,7 @@ def _most_negative(lam: NDArray[np.float64], m: int) -> int:  # pragma: no cover
 
 
 @numba.njit(cache=True, nogil=True)
-def _remove(support: NDArray[np.int64], m: int, position: int) -> None:  # pragma: no cover
+def _remove(support: NDArray[np.int64], m: int, position: int) -> None:
     """Drop ``support[position]`` from the first ``m`` entries, keeping their order."""
     for i in range(position, m - 1):
         support[i] = support[i + 1]
@@ -110,7 +110,7 @@ def _remove(support: NDArray[np.int64], m: int, position: int) -> None:  # pragm
 @numba.njit(cache=True, nogil=True)
 def pivot_ball(q: NDArray[np.float64], centre: NDArray[np.float64],
                support: NDArray[np.int64],
-               lam: NDArray[np.float64]) -> int:  # pragma: no cover - compiled
+               lam: NDArray[np.float64]) -> int:
     """Propose the minimum ball of the rows of ``q`` (n, d), centred and scaled to extent ~1.
 
     Parameters

@@ -180,7 +180,7 @@ class CrosslandResult:
 
 
 @numba.njit(cache=True, nogil=True)
-def _tresca(a: NDArray[np.float64]) -> float:  # pragma: no cover - compiled
+def _tresca(a: NDArray[np.float64]) -> float:
     """Half the spread of the eigenvalues of the symmetric 3 × 3 ``a`` (cyclic Jacobi)."""
     for _ in range(_JACOBI_MAX_SWEEPS):
         off = a[0, 1] * a[0, 1] + a[0, 2] * a[0, 2] + a[1, 2] * a[1, 2]
@@ -213,7 +213,7 @@ def _tresca(a: NDArray[np.float64]) -> float:  # pragma: no cover - compiled
 
 @numba.njit(cache=True, nogil=True)
 def _deviatoric_path(stress: NDArray[np.float64],
-                     vec: NDArray[np.float64]) -> None:  # pragma: no cover - compiled
+                     vec: NDArray[np.float64]) -> None:
     """5-vectors of one point's history ``stress`` (T, 6) into ``vec`` (T, 5)."""
     for t in range(stress.shape[0]):
         s = stress[t]
@@ -227,7 +227,7 @@ def _deviatoric_path(stress: NDArray[np.float64],
 
 @numba.njit(cache=True, nogil=True)
 def _mesoscopic_shear(v: NDArray[np.float64], c: NDArray[np.float64],
-                      mat: NDArray[np.float64]) -> float:  # pragma: no cover - compiled
+                      mat: NDArray[np.float64]) -> float:
     """Tresca shear of ``ŝ = s − s*`` from the 5-vectors ``v`` of ``s`` and ``c`` of ``s*``.
 
     Back from 5-D to the 3 × 3 deviator (the isotropic part is irrelevant to the spread).
@@ -249,7 +249,7 @@ def _dang_van_kernel(stress: NDArray[np.float64], a_dv: float, index: NDArray[np
                      time_index: NDArray[np.intp], tau_out: NDArray[np.float64],
                      p_out: NDArray[np.float64], centres: NDArray[np.float64],
                      radii: NDArray[np.float64], gap: NDArray[np.float64],
-                     status: NDArray[np.int8]) -> None:  # pragma: no cover - compiled
+                     status: NDArray[np.int8]) -> None:
     """Per material point j of ``stress`` (P, T, 6): certified ball of the path, then ``max_t``."""
     n_pts, n_t, _ = stress.shape
     vec = np.empty((n_t, N_DEVIATORIC))

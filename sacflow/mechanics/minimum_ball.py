@@ -126,7 +126,7 @@ class EnclosingBalls:
 
 @numba.njit(cache=True, nogil=True)
 def _dual_bound(q: NDArray[np.float64], support: NDArray[np.int64],
-                weights: NDArray[np.float64], m: int) -> float:  # pragma: no cover - compiled
+                weights: NDArray[np.float64], m: int) -> float:
     """``φ(w) = Σ w_i |q_i − q̄_w|²`` over the first ``m`` support points (weights as given)."""
     d = q.shape[1]
     phi = 0.0
@@ -142,7 +142,7 @@ def _dual_bound(q: NDArray[np.float64], support: NDArray[np.int64],
 @numba.njit(cache=True, nogil=True)
 def _certificate(q: NDArray[np.float64], centre: NDArray[np.float64],
                  support: NDArray[np.int64], weights: NDArray[np.float64],
-                 m: int) -> tuple[float, float]:  # pragma: no cover - compiled
+                 m: int) -> tuple[float, float]:
     """Squared enclosing radius about ``centre`` and relative gap to the dual bound.
 
     The affine coefficients in ``weights`` become dual weights first: negative ones (≥ −1e-12
@@ -163,7 +163,7 @@ def _certificate(q: NDArray[np.float64], centre: NDArray[np.float64],
 
 
 @numba.njit(cache=True, nogil=True)
-def _scaled(pts: NDArray[np.float64], work: NDArray[np.float64]) -> float:  # pragma: no cover
+def _scaled(pts: NDArray[np.float64], work: NDArray[np.float64]) -> float:
     """Set ``work = (pts − pts[0]) / scale``, ``scale`` the largest coordinate offset; return it."""
     n, d = pts.shape
     scale = 0.0
@@ -181,7 +181,7 @@ def _scaled(pts: NDArray[np.float64], work: NDArray[np.float64]) -> float:  # pr
 @numba.njit(cache=True, nogil=True)
 def _solve_scaled(q: NDArray[np.float64], centre: NDArray[np.float64],
                   support: NDArray[np.int64], weights: NDArray[np.float64],
-                  ) -> tuple[int, float, float, int]:  # pragma: no cover - compiled
+                  ) -> tuple[int, float, float, int]:
     """Fast path, certificate, fallback on ``q`` of unit extent: (m, R², gap, status)."""
     m = pivot_ball(q, centre, support, weights)
     if m > 0:
@@ -199,7 +199,7 @@ def _solve_scaled(q: NDArray[np.float64], centre: NDArray[np.float64],
 @numba.njit(cache=True, nogil=True)
 def certified_ball(pts: NDArray[np.float64], work: NDArray[np.float64],
                    centre: NDArray[np.float64], support: NDArray[np.int64],
-                   weights: NDArray[np.float64]) -> tuple[float, float, int]:  # pragma: no cover
+                   weights: NDArray[np.float64]) -> tuple[float, float, int]:
     """Certified minimum ball of ``pts`` (n, d) in physical units (compiled; one set).
 
     Parameters
@@ -240,7 +240,7 @@ def certified_ball(pts: NDArray[np.float64], work: NDArray[np.float64],
 def _balls(points: NDArray[np.float64], centres: NDArray[np.float64],
            radii: NDArray[np.float64], support: NDArray[np.int64],
            weights: NDArray[np.float64], gap: NDArray[np.float64],
-           status: NDArray[np.int8]) -> None:  # pragma: no cover - compiled
+           status: NDArray[np.int8]) -> None:
     """Certified minimum balls of ``points[j]`` (n, d) for every set j."""
     n_sets, n, d = points.shape
     work = np.empty((n, d))
