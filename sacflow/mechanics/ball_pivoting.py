@@ -36,7 +36,8 @@ __all__ = ["PIVOT_TOLERANCE", "pivot_ball"]
 #: count as non-negative.
 PIVOT_TOLERANCE = 1.0e-12
 #: Pivot steps per support dimension (``d + 1``) before the fast path gives up and leaves the
-#: set to the exact fallback: a converging run needs a few steps per support point, a cycling
+#: set to the exact fallback: a converging run needs a few tens of steps per support point
+#: (at most 204 in all for the 17 160 paths of 177 points of the seed rolling case), a cycling
 #: one never stops.
 _STEPS_PER_DIMENSION = 50
 
