@@ -18,7 +18,8 @@ from scipy.optimize import minimize_scalar
 
 from sacflow.mechanics.deviatoric_space import deviator_from_vector, deviatoric_vector
 from sacflow.mechanics.fatigue_criteria import EnduranceLimits, crossland, dang_van
-from sacflow.mechanics.minimum_ball import min_enclosing_ball
+from sacflow.mechanics.hertz import line_contact_stress
+from sacflow.mechanics.minimum_ball import FALLBACK, min_enclosing_ball
 
 MPA = 1.0e6
 #: Plausible hard-steel ratios t₋₁/f₋₁ (both criteria are calibrated for any ratio).
@@ -205,6 +206,8 @@ def test_dang_van_against_numpy_recomputation():
     centres, radii = ball.centre, ball.radius
     assert_allclose(dv.centre, centres, rtol=0, atol=1e-12 * radii.max())
     assert_allclose(dv.radius, radii, rtol=RTOL)
+    assert_array_equal(dv.ball_status, ball.status)
+    assert_allclose(dv.ball_gap, ball.gap, rtol=0, atol=1e-15)
     s_hat = deviator(tensor(h)) - tensor(deviator_from_vector(centres))[:, None]
     eig = np.linalg.eigvalsh(s_hat)
     value = 0.5 * (eig[..., -1] - eig[..., 0]) + LIM.dang_van_a * h[..., :3].sum(-1) / 3
@@ -243,7 +246,8 @@ def test_chunked_equals_unchunked_and_time_axis():
     bounds = [0, 1, 13, 40, 41, 97]
     parts = [(dang_van(h[a:b], LIM, time_axis=1), crossland(h[a:b], LIM, time_axis=1))
              for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
-    for name in ("index", "time_index", "tau", "pressure", "centre", "radius"):
+    for name in ("index", "time_index", "tau", "pressure", "centre", "radius", "ball_gap",
+                 "ball_status"):
         assert_array_equal(np.concatenate([getattr(p[0], name) for p in parts]),
                            getattr(dv, name))
     for name in ("index", "sqrt_j2a", "p_max", "time_index_p_max"):
@@ -272,3 +276,18 @@ def test_input_errors():
     assert dv.radius[0] == 0.0 and cr.sqrt_j2a[0] == 0.0
     assert dv.tau[0] == 0.0
     assert dv.index[0] == pytest.approx(LIM.dang_van_a * 50 * MPA / LIM.torsion, rel=RTOL)
+
+
+def test_symmetry_plane_path_gets_the_certified_ball():
+    """Issue #30: the rolling line contact at 0.5 a (a path in a 3-D subspace of R⁵).
+
+    The former pivoting routine returned √J2,a = 0.278 p0 there; the minimum is 0.25 p0 (the
+    orthogonal shear amplitude, test_minimum_ball.py), which both criteria now use.
+    """
+    p0 = 1000 * MPA
+    h = line_contact_stress(np.linspace(-5.0, 5.0, 2001), 0.5, 1.0, p0, 0.3)
+    dv, cr = both(h)
+    assert dv.ball_status[0] == FALLBACK
+    assert dv.radius[0] == pytest.approx(0.25 * p0, rel=1e-5)
+    assert dv.radius[0] <= 0.25 * p0
+    assert cr.sqrt_j2a[0] == dv.radius[0]

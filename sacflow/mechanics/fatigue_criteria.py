@@ -144,6 +144,12 @@ class DangVanResult:
         Centre ``S*`` of the minimum ball of the deviatoric path (Pa; 5-vector).
     radius : ndarray
         Its radius ``√J2,a`` (Pa).
+    ball_gap : ndarray
+        Relative optimality gap of that ball, its certificate (at most
+        :data:`~sacflow.mechanics.minimum_ball.CERTIFICATE_TOLERANCE`).
+    ball_status : int8 ndarray
+        Which algorithm certified it: :data:`~sacflow.mechanics.minimum_ball.FAST_PATH` or
+        :data:`~sacflow.mechanics.minimum_ball.FALLBACK`.
     """
 
     index: NDArray[np.float64]
@@ -152,6 +158,8 @@ class DangVanResult:
     pressure: NDArray[np.float64]
     centre: NDArray[np.float64]
     radius: NDArray[np.float64]
+    ball_gap: NDArray[np.float64]
+    ball_status: NDArray[np.int8]
 
 
 @dataclass(frozen=True)
@@ -350,7 +358,8 @@ def _dang_van_flat(flat: NDArray[np.float64], limits: EnduranceLimits,
     return DangVanResult(index=(index / limits.dang_van_b).reshape(lead),
                          time_index=time_index.reshape(lead), tau=tau.reshape(lead),
                          pressure=pressure.reshape(lead),
-                         centre=centres.reshape(*lead, N_DEVIATORIC), radius=radii.reshape(lead))
+                         centre=centres.reshape(*lead, N_DEVIATORIC), radius=radii.reshape(lead),
+                         ball_gap=gap.reshape(lead), ball_status=status.reshape(lead))
 
 
 def crossland(stress_history: ArrayLike, limits: EnduranceLimits, *,
