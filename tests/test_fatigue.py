@@ -1,12 +1,10 @@
-"""Tests of the multiaxial fatigue core (sacflow.mechanics.fatigue, issue #16).
+"""Tests of the multiaxial fatigue core (sacflow.mechanics.fatigue_criteria, issue #16).
 
-Independent checks: the 5-vector identity |S| = √J2 on random tensors; the minimum ball against
-the pure-Python Welzl implementation ``miniball`` (PyPI 1.2.0) and against its optimality
-certificate (centre in the convex hull of the boundary points, by scipy's NNLS), with Jung's
-bounds; Dang Van and Crossland against closed forms (uniaxial, torsion, in-phase and 90°
-out-of-phase bending–torsion, mean stress), against a numpy recomputation with eigvalsh, at the
-endurance limits themselves (index 1), under a constant added deviator or hydrostatic stress;
-chunked processing against one pass.
+Independent checks: the 5-vector identity |S| = √J2 on random tensors (the minimum ball has its
+own tests, test_minimum_ball.py); Dang Van and Crossland against closed forms (uniaxial,
+torsion, in-phase and 90° out-of-phase bending–torsion, mean stress), against a numpy
+recomputation with eigvalsh, at the endurance limits themselves (index 1), under a constant
+added deviator or hydrostatic stress; chunked processing against one pass.
 """
 
 from __future__ import annotations
@@ -16,21 +14,12 @@ import math
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
-from scipy.optimize import minimize, minimize_scalar, nnls
+from scipy.optimize import minimize_scalar
 
-from sacflow.mechanics.fatigue import (
-    EnduranceLimits,
-    crossland,
-    dang_van,
-    deviator_from_vector,
-    deviatoric_vector,
-    min_enclosing_ball,
-)
-
-try:
-    import miniball
-except ImportError:  # pragma: no cover - depends on the test environment
-    miniball = None
+from sacflow.mechanics.deviatoric_space import deviator_from_vector, deviatoric_vector
+from sacflow.mechanics.fatigue_criteria import EnduranceLimits, crossland, dang_van
+from sacflow.mechanics.hertz import line_contact_stress
+from sacflow.mechanics.minimum_ball import FALLBACK, min_enclosing_ball
 
 MPA = 1.0e6
 #: Plausible hard-steel ratios t₋₁/f₋₁ (both criteria are calibrated for any ratio).
@@ -90,161 +79,6 @@ def test_deviatoric_vector_norm_is_sqrt_j2_and_map_inverts():
     assert_allclose(tensor(deviator_from_vector(vec)), s, atol=1e-12 * np.abs(s).max())
     assert_allclose(deviatoric_vector(sig + 123 * MPA * np.array([1, 1, 1, 0, 0, 0])), vec,
                     atol=1e-6)
-
-
-# --------------------------------------------------------------- minimum enclosing ball
-#: Set sizes for the oracle draws (the pure-Python oracle takes 0.1–0.2 s per 100–200-point
-#: set, so those sizes get fewer oracle draws; all sizes get the optimality certificate).
-SMALL_SETS = (1, 2, 3, 4, 5, 6, 7, 10, 20, 40)
-LARGE_SETS = (100, 200)
-
-
-def _draw(rng: np.random.Generator, i: int, sizes: tuple[int, ...] = SMALL_SETS) -> np.ndarray:
-    """Point sets of varied sizes and shapes, degenerate ones included."""
-    d = 5
-    kind = i % 10
-    n = int(rng.choice(sizes))
-    if kind == 0:
-        pts = rng.normal(size=(n, d))
-    elif kind == 1:  # strongly anisotropic
-        pts = rng.normal(size=(n, d)) * [1e3, 1.0, 1e-2, 10.0, 0.3]
-    elif kind == 2:  # all on a sphere (every point may support the ball)
-        pts = rng.normal(size=(n, d))
-        pts /= np.linalg.norm(pts, axis=1, keepdims=True)
-    elif kind == 3:  # on a line
-        pts = rng.normal(size=(n, 1)) * rng.normal(size=(1, d)) + rng.normal(size=d)
-    elif kind == 4:  # repeated points
-        base = rng.normal(size=(max(n // 4, 1), d))
-        pts = base[rng.integers(0, len(base), size=n)]
-    elif kind == 5:  # a single point repeated, or one point
-        pts = np.repeat(rng.normal(size=(1, d)), n, axis=0)
-    elif kind == 6:  # two points (repeated)
-        pts = rng.normal(size=(2, d))[rng.integers(0, 2, size=max(n, 2))]
-    elif kind == 7:  # in a 2-plane of R^5
-        pts = rng.normal(size=(n, 2)) @ rng.normal(size=(2, d))
-    elif kind == 8:  # uniform in a cube, stress-like magnitude and offset
-        pts = rng.uniform(-1, 1, size=(n, d)) * 400 * MPA + 2000 * MPA
-    else:  # a closed curve (a sampled 90° out-of-phase loading)
-        ph = np.linspace(0, 2 * np.pi, n, endpoint=False)
-        pts = np.outer(np.sin(ph), rng.normal(size=d)) + np.outer(np.cos(ph), rng.normal(size=d))
-    return pts
-
-
-def _check_ball(pts: np.ndarray, centre: np.ndarray, radius: float) -> None:
-    """Enclosure, optimality certificate and Jung's bounds of one ball."""
-    dist = np.linalg.norm(pts - centre, axis=1)
-    assert dist.max() <= radius * (1 + 1e-12) + 1e-300
-    if np.ptp(pts, axis=0).max() == 0.0:
-        assert radius == 0.0
-        assert_array_equal(centre, pts[0])
-        return
-    assert _is_optimal(pts, centre, radius)
-    # Jung's bounds with the diameter D: D/2 ≤ R ≤ D √(d / (2 (d + 1))).
-    diam = np.max(np.linalg.norm(pts[:, None] - pts[None], axis=-1))
-    d = pts.shape[1]
-    assert diam / 2 * (1 - 1e-12) <= radius <= diam * math.sqrt(d / (2 * (d + 1))) * (1 + 1e-12)
-
-
-def _is_optimal(pts: np.ndarray, centre: np.ndarray, radius: float) -> bool:
-    """KKT certificate: the centre is a convex combination of the points on the sphere."""
-    dist = np.linalg.norm(pts - centre, axis=1)
-    on = pts[dist >= radius * (1 - 1e-9)]
-    # min |Σ λ_i p_i − c|² + w² (Σ λ_i − 1)² over λ ≥ 0 must vanish.
-    w = 10.0
-    a = np.vstack([(on - centre).T / radius, w * np.ones(len(on))])
-    b = np.concatenate([np.zeros(pts.shape[1]), [w]])
-    _, res = nnls(a, b)
-    return res < 1e-8
-
-
-@pytest.mark.skipif(miniball is None, reason="the test-time oracle `miniball` (PyPI, 1.2.0) "
-                    "is not installed: pip install miniball==1.2.0")
-def test_ball_against_miniball_and_optimality_certificate():
-    rng = np.random.default_rng(2024)
-    n_small, n_large = 1100, 10
-    err_c = err_r = 0.0
-    for i in range(n_small + n_large):
-        pts = _draw(rng, i, SMALL_SETS if i < n_small else LARGE_SETS)
-        centre, radius = min_enclosing_ball(pts)
-        _check_ball(pts, centre, radius)
-        if radius == 0.0:
-            continue
-        scale = radius
-        # miniball 1.2.0 raises LinAlgError on repeated points: give it the distinct ones
-        # (same ball).
-        with np.errstate(invalid="ignore", divide="ignore"):
-            oracle_c, oracle_r2 = miniball.get_bounding_ball(np.unique(pts, axis=0),
-                                                             rng=np.random.default_rng(i))
-        oracle_r = math.sqrt(oracle_r2)
-        err_c = max(err_c, np.linalg.norm(centre - oracle_c) / scale)
-        err_r = max(err_r, abs(radius - oracle_r) / scale)
-    print(f"\nminimum ball vs miniball, {n_small + n_large} draws: max |Δc|/R = {err_c:.2e}, "
-          f"max |ΔR|/R = {err_r:.2e}")
-    assert err_c < 1e-8
-    assert err_r < 1e-10
-
-
-def test_ball_certificate_on_large_sets():
-    """100–200 points (the size of a load-cycle history), every shape: certificate and Jung."""
-    rng = np.random.default_rng(5)
-    for i in range(300):
-        pts = _draw(rng, i, LARGE_SETS)
-        _check_ball(pts, *min_enclosing_ball(pts))
-
-
-def test_ball_against_scipy_qp():
-    """min r² s.t. |p_i − c|² ≤ r² by SLSQP (an approximate but independent oracle)."""
-    rng = np.random.default_rng(99)
-    for i in range(60):
-        pts = _draw(rng, i)
-        if np.ptp(pts, axis=0).max() == 0.0:
-            continue
-        centre, radius = min_enclosing_ball(pts)
-        scale = np.abs(pts).max()
-        q = pts / scale
-        x0 = np.concatenate([q.mean(axis=0), [np.max(np.sum((q - q.mean(axis=0)) ** 2, 1))]])
-        res = minimize(lambda x: x[-1], x0, method="SLSQP",
-                       constraints={"type": "ineq",
-                                    "fun": lambda x, q=q: x[-1] - np.sum((q - x[:-1]) ** 2, 1)},
-                       options={"ftol": 1e-15, "maxiter": 500})
-        # SLSQP may stop on "positive directional derivative" at a degenerate optimum: any
-        # feasible point still bounds the minimum radius from above.
-        r_qp = math.sqrt(np.max(np.sum((q - res.x[:-1]) ** 2, axis=1))) * scale
-        assert radius <= r_qp * (1 + 1e-12)
-        if res.success:
-            assert radius == pytest.approx(r_qp, rel=1e-6)
-
-
-def test_ball_certificate_and_jung_on_many_sets_without_oracle():
-    """Same draws processed in one vectorised call per size (exercises the batched path)."""
-    rng = np.random.default_rng(7)
-    for n in (1, 2, 6, 50):
-        pts = rng.normal(size=(40, n, 5)) * rng.uniform(0.1, 10, size=(40, 1, 5))
-        centres, radii = min_enclosing_ball(pts)
-        assert centres.shape == (40, 5) and radii.shape == (40,)
-        for j in range(40):
-            if n == 1:
-                assert radii[j] == 0.0
-                continue
-            assert _is_optimal(pts[j], centres[j], radii[j])
-            one_c, one_r = min_enclosing_ball(pts[j])
-            assert_array_equal(one_c, centres[j])
-            assert one_r == radii[j]
-
-
-def test_ball_exact_small_cases():
-    c, r = min_enclosing_ball([[0.0, 0.0], [2.0, 0.0]])
-    assert_allclose(c, [1.0, 0.0], atol=1e-15)
-    assert r == pytest.approx(1.0, rel=RTOL)
-    # Obtuse triangle: the ball is the one on the long side, not the circumcircle.
-    c, r = min_enclosing_ball([[0.0, 0.0], [4.0, 0.0], [2.0, 0.5]])
-    assert_allclose(c, [2.0, 0.0], atol=1e-14)
-    assert r == pytest.approx(2.0, rel=RTOL)
-    # Regular simplex in R^5 (6 support points): R = D √(d / (2 (d + 1))), Jung's equality.
-    simplex = np.eye(6)[:, :]  # 6 points in R^6 lying in a 5-plane
-    c, r = min_enclosing_ball(simplex)
-    assert_allclose(c, np.full(6, 1 / 6), atol=1e-14)
-    assert r == pytest.approx(math.sqrt(2) * math.sqrt(5 / 12), rel=RTOL)
 
 
 # ---------------------------------------------------------------- closed-form paths
@@ -368,9 +202,12 @@ def test_dang_van_against_numpy_recomputation():
     rng = np.random.default_rng(11)
     h = _random_histories(rng)
     dv = dang_van(h, LIM, time_axis=1)
-    centres, radii = min_enclosing_ball(deviatoric_vector(h))
+    ball = min_enclosing_ball(deviatoric_vector(h))
+    centres, radii = ball.centre, ball.radius
     assert_allclose(dv.centre, centres, rtol=0, atol=1e-12 * radii.max())
     assert_allclose(dv.radius, radii, rtol=RTOL)
+    assert_array_equal(dv.ball_status, ball.status)
+    assert_allclose(dv.ball_gap, ball.gap, rtol=0, atol=1e-15)
     s_hat = deviator(tensor(h)) - tensor(deviator_from_vector(centres))[:, None]
     eig = np.linalg.eigvalsh(s_hat)
     value = 0.5 * (eig[..., -1] - eig[..., 0]) + LIM.dang_van_a * h[..., :3].sum(-1) / 3
@@ -409,7 +246,8 @@ def test_chunked_equals_unchunked_and_time_axis():
     bounds = [0, 1, 13, 40, 41, 97]
     parts = [(dang_van(h[a:b], LIM, time_axis=1), crossland(h[a:b], LIM, time_axis=1))
              for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
-    for name in ("index", "time_index", "tau", "pressure", "centre", "radius"):
+    for name in ("index", "time_index", "tau", "pressure", "centre", "radius", "ball_gap",
+                 "ball_status"):
         assert_array_equal(np.concatenate([getattr(p[0], name) for p in parts]),
                            getattr(dv, name))
     for name in ("index", "sqrt_j2a", "p_max", "time_index_p_max"):
@@ -432,13 +270,24 @@ def test_input_errors():
         crossland(h, LIM, time_axis=2)
     with pytest.raises(ValueError, match="finite"):
         dang_van(np.full((3, 10, 6), np.nan), LIM, time_axis=1)
-    with pytest.raises(ValueError, match="shape"):
-        min_enclosing_ball(np.zeros((4, 0, 5)))
-    with pytest.raises(ValueError, match="finite"):
-        min_enclosing_ball(np.array([[np.inf, 0.0]]))
     # A constant history: zero amplitude, index from the pressure alone.
     const = np.tile([100 * MPA, 50 * MPA, 0, 10 * MPA, 0, 0], (1, 5, 1))
     dv, cr = dang_van(const, LIM, time_axis=1), crossland(const, LIM, time_axis=1)
     assert dv.radius[0] == 0.0 and cr.sqrt_j2a[0] == 0.0
     assert dv.tau[0] == 0.0
     assert dv.index[0] == pytest.approx(LIM.dang_van_a * 50 * MPA / LIM.torsion, rel=RTOL)
+
+
+def test_symmetry_plane_path_gets_the_certified_ball():
+    """Issue #30: the rolling line contact at 0.5 a (a path in a 3-D subspace of R⁵).
+
+    The former pivoting routine returned √J2,a = 0.278 p0 there; the minimum is 0.25 p0 (the
+    orthogonal shear amplitude, test_minimum_ball.py), which both criteria now use.
+    """
+    p0 = 1000 * MPA
+    h = line_contact_stress(np.linspace(-5.0, 5.0, 2001), 0.5, 1.0, p0, 0.3)
+    dv, cr = both(h)
+    assert dv.ball_status[0] == FALLBACK
+    assert dv.radius[0] == pytest.approx(0.25 * p0, rel=1e-5)
+    assert dv.radius[0] <= 0.25 * p0
+    assert cr.sqrt_j2a[0] == dv.radius[0]

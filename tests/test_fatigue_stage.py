@@ -19,7 +19,7 @@ import xarray as xr
 
 from sacflow.compare.core import CompareError
 from sacflow.compare.fatigue_index import DEFAULT_LIMITS, fatigue, history_blocks
-from sacflow.mechanics.fatigue import fatigue_indices
+from sacflow.mechanics.fatigue_criteria import fatigue_indices
 from sacflow.mechanics.hertz import composite_modulus, hertz_contact, hertz_subsurface_stress
 from sacflow.runner import run_case
 from sacflow.storage.case_file import case_from_dict

@@ -4,8 +4,8 @@ The stress history of a material point (a cuboid of the body grid) is the *total
 (contact + residual, run variable ``stress``) at every step of the run: loading, the rolling
 pass, unloading. In a rolling run the body grid is fixed to the material while the load moves,
 so a cuboid's stored values over the steps are exactly the history it lived through. Each
-cuboid's history goes through :func:`sacflow.mechanics.fatigue.fatigue_indices` (minimum ball of the
-deviatoric path, exact), see that module for the criteria.
+cuboid's history goes through :func:`sacflow.mechanics.fatigue_criteria.fatigue_indices`
+(minimum ball of the deviatoric path, exact), see that module for the criteria.
 
 What the run must store: the ``stress`` field (the default of ``output.fields``) at every step
 (``output.volume_every = 1``); a run that stores it every k > 1 steps, or not at all, or that
@@ -29,7 +29,7 @@ import numpy as np
 import xarray as xr
 
 from sacflow.compare.core import CompareError, RunLike, build, case_name, case_of, require
-from sacflow.mechanics.fatigue import EnduranceLimits, fatigue_indices
+from sacflow.mechanics.fatigue_criteria import EnduranceLimits, fatigue_indices
 from sacflow.solver.state import COMPONENTS
 from sacflow.storage.run_reader import open_run, run_info
 
