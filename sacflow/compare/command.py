@@ -66,8 +66,8 @@ STAGES: dict[str, Stage] = {
     "fatigue": Stage(
         "fatigue_index:fatigue",
         "1",
-        ("bending_limit", "torsion_limit"),
-        help="Dang Van and Crossland index fields over the stored stress history",
+        ("bending_limit", "torsion_limit", "cycle"),
+        help="Dang Van and Crossland index fields over one load cycle of the stored history",
     ),
     "passes": Stage("pass_history:passes", "1",
                     help="repeated rolling: plastic flow per pass, shakedown or ratcheting"),
@@ -150,6 +150,9 @@ def add_compare_command(commands: Any) -> None:
     option.add_argument(
         "--bending-limit", type=float, help="fatigue: fully reversed bending endurance limit [Pa]"
     )
+    option.add_argument(
+        "--cycle", help="fatigue: 'auto' (the last complete pass, or the whole history), 'all' "
+        "or a step range 'first:last'")
     option.add_argument(
         "--torsion-limit", type=float, help="fatigue: fully reversed torsion endurance limit [Pa]"
     )

@@ -29,6 +29,7 @@ import numpy as np
 import xarray as xr
 
 from sacflow.compare.core import CompareError, RunLike, build, case_name, case_of, require
+from sacflow.compare.load_cycle import AUTOMATIC, LoadCycle, load_cycle
 from sacflow.mechanics.fatigue_criteria import EnduranceLimits, fatigue_indices
 from sacflow.solver.state import COMPONENTS
 from sacflow.storage.run_reader import open_run, run_info
@@ -80,8 +81,9 @@ def fatigue(
     torsion_limit: float | None = None,
     max_memory: int = DEFAULT_MAX_MEMORY,
     progress: bool = False,
+    cycle: str = AUTOMATIC,
 ) -> xr.Dataset:
-    """Dang Van and Crossland index fields of a run, and where their maxima sit.
+    """Dang Van and Crossland index fields of a run on one load cycle, and where their maxima sit.
 
     Parameters
     ----------
@@ -94,6 +96,10 @@ def fatigue(
         Bytes of stress history held at once (the volume is processed in blocks of x1 rows).
     progress : bool
         Show a progress bar over the blocks.
+    cycle : str
+        The load cycle (:mod:`sacflow.compare.load_cycle`): ``"auto"`` (default: the last
+        complete pass of a repeated-rolling run, else the whole history), ``"all"``, or a range
+        of step numbers ``"first:last"``.
 
     Returns
     -------
@@ -101,7 +107,8 @@ def fatigue(
         Fields over (x1, x2, x3): ``dang_van``, ``crossland``, ``sqrt_j2_amplitude``,
         ``hydrostatic_max``, ``dang_van_step``; scalars ``dang_van_max`` with
         ``dang_van_max_x1``, ``_x2``, ``_depth``, ``_step`` and the same for ``crossland_max``.
-        Attributes: the limits, the constants a, b, α, β derived from them and their source.
+        Attributes: the limits, the constants a, b, α, β derived from them and their source,
+        the cycle (``cycle``, ``cycle_first_step``, ``cycle_last_step``).
 
     Raises
     ------
@@ -112,8 +119,9 @@ def fatigue(
     ds, close = _open(run)
     try:
         _check_history(ds)
-        fields = _indices(ds, limits, max_memory, progress)
-        return _result(ds, fields, limits, source)
+        chosen = load_cycle(ds, cycle)
+        fields = _indices(ds.isel(step=chosen.positions), limits, max_memory, progress)
+        return _result(ds, fields, limits, source, chosen)
     finally:
         if close:
             ds.close()
@@ -226,7 +234,8 @@ def _argmax(field: np.ndarray, ds: xr.Dataset) -> tuple[float, float, float, flo
 
 
 def _result(
-    ds: xr.Dataset, fields: dict[str, np.ndarray], limits: EnduranceLimits, source: str
+    ds: xr.Dataset, fields: dict[str, np.ndarray], limits: EnduranceLimits, source: str,
+    chosen: LoadCycle,
 ) -> xr.Dataset:
     dims = ("x1", "x2", "x3")
     data: dict[str, Any] = {name: (dims, value) for name, value in fields.items()}
@@ -260,7 +269,10 @@ def _result(
             "crossland_alpha": limits.crossland_alpha,
             "crossland_beta": limits.crossland_beta,
             "limits_source": source,
-            "history_steps": int(ds.sizes["step"]),
+            "history_steps": int(chosen.positions.size),
+            "cycle": chosen.description,
+            "cycle_first_step": int(ds["step"].values[chosen.positions[0]]),
+            "cycle_last_step": int(ds["step"].values[chosen.positions[-1]]),
             "rolling": bool(roll),
             "track_x2": _track_x2(ds),
             "track_margin": TRACK_MARGIN_RADII * case.hertz().a,
