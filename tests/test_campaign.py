@@ -31,11 +31,13 @@ from test_store import make_coords, make_state
 import sacflow.campaign as campaign_module
 from sacflow import runner
 from sacflow.campaign import (
+    CampaignConflictError,
     case_names,
     expand_campaign,
     load_campaign,
     run_campaign,
 )
+from sacflow.campaign.opening import open_campaign
 from sacflow.campaign import cluster as cluster_module
 from sacflow.cli import main
 from sacflow.config.schema import NAME_PATTERN, Case
@@ -745,7 +747,7 @@ def test_unreachable_scheduler_is_a_clear_error(tmp_path, capsys):
 
 
 def test_campaign_never_overwrites_a_run_of_another_case(folder, shared_cluster):
-    """A case whose name already holds another case's run fails with the reason; asked, it runs."""
+    """Names holding other cases' runs: the re-run refuses, manifest and runs untouched (#31)."""
     base = (folder / "base.toml").read_text()
     (folder / "fake-base.toml").write_text(base)
     sweep = '[[sweep]]\nmode = "zip"\nparameters = { "grid.nx" = [16, 24] }'
@@ -755,15 +757,29 @@ def test_campaign_never_overwrites_a_run_of_another_case(folder, shared_cluster)
                          simulation_factory=fake_simulation)
     assert first.counts()["done"] == 2, first.table()
     stored = (out / "keep-nx16.nc").read_bytes()
+    manifest = first.manifest.read_bytes()
 
-    (folder / "fake-base.toml").write_text(base.replace("nz = 3", "nz = 4"))  # another case
-    second = run_campaign(load_campaign(path), out, scheduler=shared_cluster, progress=False,
-                          simulation_factory=fake_simulation)
-    assert len(second.failed) == 2 and (out / "keep-nx16.nc").read_bytes() == stored
-    error = second.failed[0].error
-    assert "grid.nz: 3 -> 4" in error and "--overwrite" in error and second.failed[0].traceback \
-        is None
+    # the issue's sequence: the same campaign again with --set grid.nz=... (other case ids)
+    with pytest.raises(CampaignConflictError) as caught:
+        run_campaign(load_campaign(path, ["grid.nz=4"]), out, scheduler=shared_cluster,
+                     progress=False, simulation_factory=fake_simulation)
+    error = str(caught.value)
+    assert "2 of 2 cases" in error and "grid.nz: 3 -> 4" in error and "--overwrite" in error
+    assert "--out" in error and "keep-nx16.nc" in error
+    assert first.manifest.read_bytes() == manifest and (out / "keep-nx16.nc").read_bytes() == stored
+    opened = open_campaign(out)
+    try:
+        assert list(opened.summary["status"].values) == ["done", "done"]
+        assert opened.fields["keep-nx16"].ds.sizes["x3"] == 3
+    finally:
+        opened.close()
 
-    third = run_campaign(load_campaign(path), out, scheduler=shared_cluster, progress=False,
-                         simulation_factory=fake_simulation, overwrite=True)
+    # the CLI says the same, exit code 2, no traceback
+    main_args = ["campaign", str(path), "--out", str(out), "--scheduler", shared_cluster,
+                 "--set", "grid.nz=4", "--no-progress"]
+    assert main(main_args) == 2
+    assert first.manifest.read_bytes() == manifest
+
+    third = run_campaign(load_campaign(path, ["grid.nz=4"]), out, scheduler=shared_cluster,
+                         progress=False, simulation_factory=fake_simulation, overwrite=True)
     assert third.counts()["done"] == 2, third.table()
