@@ -37,8 +37,8 @@ from sacflow.campaign import (
     load_campaign,
     run_campaign,
 )
-from sacflow.campaign.opening import open_campaign
 from sacflow.campaign import cluster as cluster_module
+from sacflow.campaign.opening import open_campaign
 from sacflow.cli import main
 from sacflow.config.schema import NAME_PATTERN, Case
 from sacflow.errors import ConfigError, ConvergenceError
