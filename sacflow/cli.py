@@ -18,7 +18,7 @@ from pathlib import Path
 
 from sacflow.compare.command import add_compare_command
 from sacflow.config.schema import Case, case_json_schema
-from sacflow.errors import ConfigError, SacflowError
+from sacflow.errors import ConfigError, InputError, SacflowError
 from sacflow.storage.case_file import load_case
 
 __all__ = ["main"]
@@ -34,7 +34,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         _check_before_work(args)
         return args.handler(args)
-    except ConfigError as exc:
+    except InputError as exc:
         _error(exc)
         return EXIT_CONFIG
     except (SacflowError, OSError) as exc:

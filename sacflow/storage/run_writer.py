@@ -64,6 +64,7 @@ from sacflow.storage.run_variables import (
     dimension_sizes,
     selected_fields,
 )
+from sacflow.storage.write_failure import reporting
 
 __all__ = ["RunBusyError", "RunExistsError", "RunWriter", "replace_message"]
 
@@ -173,14 +174,17 @@ class RunWriter:
         # Parts are temporary, read once at consolidation: uncompressed (compressing each step
         # twice, in its part and in the consolidated file, would be wasted work).
         try:
-            with write_through(), create_run_dataset(tmp, self.coords, self.names, attrs, 0) as nc:
-                write_step(nc, 0, state.step, values)
-                if state.restart:
-                    write_restart(nc, state, {**values, **uniform})
+            with reporting(f"step {self.next_step}", self.path, self.next_step):
+                with write_through(), create_run_dataset(tmp, self.coords, self.names, attrs,
+                                                         0) as nc:
+                    write_step(nc, 0, state.step, values)
+                    if state.restart:
+                        write_restart(nc, state, {**values, **uniform})
+                part = publish_part(tmp, self.next_step)
         except BaseException:
             tmp.unlink(missing_ok=True)
             raise
-        self._stored.append(publish_part(tmp, self.next_step))
+        self._stored.append(part)
         self.next_step += 1
 
     def close(self) -> None:
@@ -190,7 +194,8 @@ class RunWriter:
         self._closed = True
         attrs = {**self.attrs, "complete": 1}
         try:
-            with AtomicFile(self.path) as tmp:
+            with reporting("the consolidated file", self.path, self.next_step), \
+                    AtomicFile(self.path) as tmp:
                 write_consolidated(tmp, self._stored, self.coords, self.names, attrs,
                                    self.compression, self.volume_dtype)
             shutil.rmtree(self.parts, ignore_errors=True)
