@@ -22,6 +22,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import psutil
@@ -43,6 +44,7 @@ from sacflow.cli import main
 from sacflow.config.schema import NAME_PATTERN, Case
 from sacflow.errors import ConfigError, ConvergenceError
 from sacflow.machine.malloc import MALLOC_ENV
+from sacflow.machine.resources import available_memory
 from sacflow.storage.case_file import load_case
 from sacflow.storage.run_reader import completed_steps, is_complete, open_run
 
@@ -783,3 +785,25 @@ def test_campaign_never_overwrites_a_run_of_another_case(folder, shared_cluster)
     third = run_campaign(load_campaign(path, ["grid.nz=4"]), out, scheduler=shared_cluster,
                          progress=False, simulation_factory=fake_simulation, overwrite=True)
     assert third.counts()["done"] == 2, third.table()
+
+
+def test_local_workers_declare_their_memory_and_are_no_more_than_fit():
+    """Issue #31: as many workers as the largest case fits in memory, each declaring its share."""
+    available = available_memory()
+    with cluster_module.connect(None, None, 3, largest_task=int(0.6 * available)) as client:
+        assert len(client.nthreads()) == 1, "two cases of 60 % of the memory do not fit"
+        memory = cluster_module.worker_memory(client)
+        assert memory is not None and 0.5 * available < memory < 1.5 * available
+        # a task declares at most what a worker has (dask would wait forever for more)
+        future = client.submit(sum, [1, 2], resources={cluster_module.MEMORY_RESOURCE: memory})
+        assert future.result(timeout=60) == 3
+
+
+def test_tasks_declare_memory_only_where_every_worker_declares_it():
+    def client(*resources):
+        workers = {str(i): {"resources": r} for i, r in enumerate(resources)}
+        return SimpleNamespace(scheduler_info=lambda: {"workers": workers})
+
+    assert cluster_module.worker_memory(client({"memory": 4e9}, {"memory": 2e9})) == 2e9
+    assert cluster_module.worker_memory(client({"memory": 4e9}, {})) is None
+    assert cluster_module.worker_memory(client()) is None

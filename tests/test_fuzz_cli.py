@@ -357,7 +357,7 @@ def campaign_example(draw) -> tuple[str, dict[str, Any], list[str], tuple[str, .
 
 
 @contextlib.contextmanager
-def _stand_in_client(scheduler, workers, tasks):
+def _stand_in_client(scheduler, workers, tasks, largest_task=0):
     """No cluster: a client with no workers (the tasks are not run)."""
     yield SimpleNamespace(nthreads=dict, scheduler=SimpleNamespace(address="inproc://fuzz"),
                           scheduler_info=lambda: {"services": {}})

@@ -21,11 +21,13 @@ from typing import Any
 
 from sacflow.errors import ConfigError, SacflowError
 from sacflow.machine.malloc import MALLOC_ENV
+from sacflow.machine.resources import available_memory
 
 __all__ = [
     "FFT_THREADS_ENV",
     "FORK_SERVER_LAST",
     "MAX_PORT",
+    "MEMORY_RESOURCE",
     "PLASTIC_PRELOAD",
     "SCHEDULER_FORM",
     "SCHEDULER_SCHEMES",
@@ -37,6 +39,7 @@ __all__ = [
     "saved_environ",
     "start_fork_server",
     "worker_environ",
+    "worker_memory",
 ]
 
 #: Environment variable read by the FFT operators; campaign workers default to 1 thread each.
@@ -57,6 +60,9 @@ PLASTIC_PRELOAD = ("scipy.sparse.linalg", "sacflow.kernels.eigenstrain",
                    "sacflow.kernels.pair_products")
 #: ... and last, a module that freezes the garbage collector's view of all that (gc.freeze).
 FORK_SERVER_LAST = "sacflow.campaign.gc_freeze"
+#: The dask worker resource a case's memory estimate is declared in [bytes]: a worker runs no
+#: more cases at once than fit in what it declares (``dask worker --resources memory=64e9``).
+MEMORY_RESOURCE = "memory"
 #: Transport schemes of a dask scheduler address (``--scheduler``); none means tcp.
 SCHEDULER_SCHEMES = ("tcp", "tls", "ws", "wss", "ucx")
 #: Largest TCP port number.
@@ -94,8 +100,14 @@ def check_scheduler_address(address: str) -> None:
 
 
 @contextmanager
-def connect(scheduler: str | None, workers: int | None, tasks: int) -> Iterator[Any]:
+def connect(
+    scheduler: str | None, workers: int | None, tasks: int, largest_task: int = 0
+) -> Iterator[Any]:
     """Yield a dask client: on ``scheduler``, or on a new local cluster closed at the end.
+
+    The local cluster's workers declare the dask resource :data:`MEMORY_RESOURCE`, each its
+    share of :func:`~sacflow.machine.resources.available_memory`; without ``workers`` there are
+    no more of them than cases of ``largest_task`` bytes fit in that memory (at least one).
 
     Parameters
     ----------
@@ -105,6 +117,8 @@ def connect(scheduler: str | None, workers: int | None, tasks: int) -> Iterator[
         Worker processes of the local cluster (default: one per core).
     tasks : int
         Number of tasks to run: the local cluster has no more workers than that.
+    largest_task : int
+        Estimated memory of the largest task [bytes] (0: not known).
 
     Raises
     ------
@@ -117,8 +131,24 @@ def connect(scheduler: str | None, workers: int | None, tasks: int) -> Iterator[
         with _remote_client(scheduler) as client:
             yield client
     else:
-        with _local_client(min(workers or _cores(), tasks)) as client:
+        available = available_memory()
+        fit = max(1, available // largest_task) if largest_task else tasks
+        n = min(workers or min(_cores(), fit), tasks)
+        with _local_client(n, available // n) as client:
             yield client
+
+
+def worker_memory(client: Any) -> int | None:
+    """Smallest :data:`MEMORY_RESOURCE` of ``client``'s workers [bytes]; None if one has none.
+
+    Tasks declare their memory estimate only to clusters whose every worker declares it
+    (``dask worker --resources memory=64e9``): elsewhere dask would never run them.
+    """
+    workers = client.scheduler_info().get("workers", {}).values()
+    amounts = [w.get("resources", {}).get(MEMORY_RESOURCE) for w in workers]
+    if not amounts or any(a is None for a in amounts):
+        return None
+    return int(min(amounts))
 
 
 @contextmanager
@@ -139,8 +169,11 @@ def _remote_client(scheduler: str) -> Iterator[Any]:
 
 
 @contextmanager
-def _local_client(n: int) -> Iterator[Any]:
-    """Yield a client of a new local cluster of ``n`` single-threaded workers."""
+def _local_client(n: int, memory: int) -> Iterator[Any]:
+    """Yield a client of a new local cluster of ``n`` single-threaded workers.
+
+    Each declares ``memory`` bytes of the resource :data:`MEMORY_RESOURCE`.
+    """
     method = start_fork_server(plastic=None)  # started already by run_campaign, else now
     import dask
     from distributed import Client, LocalCluster
@@ -172,6 +205,7 @@ def _local_client(n: int) -> Iterator[Any]:
             processes=True,
             silence_logs=logging.ERROR,
             env=dict(WORKER_ENV),
+            resources={MEMORY_RESOURCE: memory},
         )
         try:
             _keep_preload(method)

@@ -25,6 +25,7 @@ from sacflow.campaign.expansion import CampaignCase, expand_campaign, load_campa
 from sacflow.campaign.manifest import CampaignSummary, Manifest
 from sacflow.config.schema import Campaign, Case, Elastic
 from sacflow.errors import ConfigError, SacflowError
+from sacflow.solver.memory_estimate import estimate_memory
 from sacflow.storage.output_dir import prepare_output_dir
 
 __all__ = [
@@ -107,12 +108,13 @@ def run_campaign(
     )
     n_workers, dashboard = 0, None
     if pending:
-        with cluster.connect(scheduler, workers, len(pending)) as client:
+        memory = {c.index: estimate_memory(c.case).total for c in pending}
+        with cluster.connect(scheduler, workers, len(pending), max(memory.values())) as client:
             n_workers = len(client.nthreads())
             dashboard = cluster.dashboard(client, local=not scheduler)
             _say(f"dask: {client.scheduler.address}, {n_workers} workers, dashboard {dashboard}")
             _run_pending(client, pending, out_dir, manifest, progress, simulation_factory,
-                         overwrite)
+                         overwrite, memory)
     return CampaignSummary(
         name=campaign.name,
         out_dir=out_dir,
@@ -185,16 +187,23 @@ def _run_pending(
     progress: bool,
     simulation_factory: SimulationFactory | None,
     overwrite: bool = False,
+    memory: dict[int, int] | None = None,
 ) -> None:
     from distributed import as_completed
 
     # Longest first (dask runs tasks in submission order): a long case started last would keep
     # one worker busy while the others idle. Equal estimates keep the campaign order.
     ordered = sorted(pending, key=_estimated_cost, reverse=True)
+    # Each task declares its memory estimate where the workers declare theirs, so that a worker
+    # never runs more cases at once than fit; never more than a worker has (dask would wait
+    # forever): such a case runs alone, and its worker's memory check decides.
+    per_worker = cluster.worker_memory(client)
     futures = {
         client.submit(
             run_one, c.case.canonical_json(), str(out_dir), simulation_factory, overwrite,
             pure=False,
+            resources=None if per_worker is None or memory is None else {
+                cluster.MEMORY_RESOURCE: min(memory[c.index], per_worker)},
         ): c
         for c in ordered
     }
