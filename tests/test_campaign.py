@@ -787,16 +787,29 @@ def test_campaign_never_overwrites_a_run_of_another_case(folder, shared_cluster)
     assert third.counts()["done"] == 2, third.table()
 
 
-def test_local_workers_declare_their_memory_and_are_no_more_than_fit():
-    """Issue #31: as many workers as the largest case fits in memory, each declaring its share."""
+def test_no_more_local_workers_than_cases_fit_in_memory():
+    """Issue #31: as many single-threaded workers as the largest case fits in memory."""
     available = available_memory()
     with cluster_module.connect(None, None, 3, largest_task=int(0.6 * available)) as client:
         assert len(client.nthreads()) == 1, "two cases of 60 % of the memory do not fit"
-        memory = cluster_module.worker_memory(client)
-        assert memory is not None and 0.5 * available < memory < 1.5 * available
-        # a task declares at most what a worker has (dask would wait forever for more)
-        future = client.submit(sum, [1, 2], resources={cluster_module.MEMORY_RESOURCE: memory})
-        assert future.result(timeout=60) == 3
+        assert set(client.nthreads().values()) == {1}, "one case at a time"
+
+
+def test_tasks_declare_their_memory_to_workers_declaring_theirs(folder):
+    """A cluster of one's own, its workers declaring memory: tasks declare their estimates,
+    at most what a worker has (a task asking more would wait for ever: here every case's
+    estimate is above the 1 MB declared, so the cases run one at a time and finish)."""
+    from distributed import Client, LocalCluster
+
+    with LocalCluster(n_workers=1, threads_per_worker=2, processes=True,
+                      dashboard_address=None,
+                      resources={cluster_module.MEMORY_RESOURCE: 1e6}) as local, \
+            Client(local) as client:
+        assert cluster_module.worker_memory(client) == 1e6
+        summary = run_campaign(load_campaign(fake_campaign(folder)), folder / "out",
+                               scheduler=local.scheduler_address, progress=False,
+                               simulation_factory=fake_simulation)
+        assert summary.counts()["done"] == 4, summary.table()
 
 
 def test_tasks_declare_memory_only_where_every_worker_declares_it():

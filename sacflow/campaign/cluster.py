@@ -105,9 +105,12 @@ def connect(
 ) -> Iterator[Any]:
     """Yield a dask client: on ``scheduler``, or on a new local cluster closed at the end.
 
-    The local cluster's workers declare the dask resource :data:`MEMORY_RESOURCE`, each its
-    share of :func:`~sacflow.machine.resources.available_memory`; without ``workers`` there are
-    no more of them than cases of ``largest_task`` bytes fit in that memory (at least one).
+    Without ``workers``, the local cluster has no more single-threaded workers than cases of
+    ``largest_task`` bytes fit in :func:`~sacflow.machine.resources.available_memory` (at least
+    one): each runs one case at a time, so the machine never runs more cases than fit. Its
+    workers declare no :data:`MEMORY_RESOURCE` (dask hands resource-restricted tasks to a worker
+    in arrival order, not in the longest-first order of submission); workers of a cluster of
+    one's own that declare it get tasks declaring their estimates (:func:`worker_memory`).
 
     Parameters
     ----------
@@ -134,7 +137,7 @@ def connect(
         available = available_memory()
         fit = max(1, available // largest_task) if largest_task else tasks
         n = min(workers or min(_cores(), fit), tasks)
-        with _local_client(n, available // n) as client:
+        with _local_client(n) as client:
             yield client
 
 
@@ -169,11 +172,8 @@ def _remote_client(scheduler: str) -> Iterator[Any]:
 
 
 @contextmanager
-def _local_client(n: int, memory: int) -> Iterator[Any]:
-    """Yield a client of a new local cluster of ``n`` single-threaded workers.
-
-    Each declares ``memory`` bytes of the resource :data:`MEMORY_RESOURCE`.
-    """
+def _local_client(n: int) -> Iterator[Any]:
+    """Yield a client of a new local cluster of ``n`` single-threaded workers."""
     method = start_fork_server(plastic=None)  # started already by run_campaign, else now
     import dask
     from distributed import Client, LocalCluster
@@ -205,7 +205,6 @@ def _local_client(n: int, memory: int) -> Iterator[Any]:
             processes=True,
             silence_logs=logging.ERROR,
             env=dict(WORKER_ENV),
-            resources={MEMORY_RESOURCE: memory},
         )
         try:
             _keep_preload(method)
