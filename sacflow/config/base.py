@@ -115,7 +115,8 @@ def number_kind(annotation: Any) -> tuple[type, bool] | None:
         return kinds[0] if len(kinds) == 1 else None
     if origin is tuple:
         inner = {number_kind(a) for a in typing.get_args(annotation) if a is not Ellipsis}
-        return (next(iter(inner))[0], True) if len(inner) == 1 and None not in inner else None
+        only = next(iter(inner)) if len(inner) == 1 else None
+        return None if only is None else (only[0], True)
     if annotation is float or annotation is int:
         return annotation, False
     return None
