@@ -10,7 +10,9 @@ and the ``--out`` folder is checked for writing (:mod:`sacflow.storage.output_di
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
+import os
 import sys
 import time
 from collections.abc import Sequence
@@ -26,6 +28,9 @@ __all__ = ["main"]
 EXIT_RUN_FAILED = 1
 EXIT_CONFIG = 2
 EXIT_INTERRUPTED = 130
+#: Exit code of a command whose reader went away (``sacflow schema | head``): 128 + SIGPIPE,
+#: as a command killed by the signal would give.
+EXIT_BROKEN_PIPE = 141
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -37,6 +42,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     except InputError as exc:
         _error(exc)
         return EXIT_CONFIG
+    except BrokenPipeError:  # the reader has what it wanted: no message, no flush at exit
+        with contextlib.suppress(OSError, ValueError):  # stdout may be no file (in tests)
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return EXIT_BROKEN_PIPE
     except (SacflowError, OSError) as exc:
         _error(exc)
         return EXIT_RUN_FAILED
@@ -60,12 +69,12 @@ def _check_before_work(args: argparse.Namespace) -> None:
     here: the folder is made when the first file is written.
     """
     from sacflow.machine.environment import check_environment
-    from sacflow.storage.output_dir import check_output_dir
+    from sacflow.storage.output_dir import COMMAND_LINE, check_output_dir
 
     if args.command in _ENVIRONMENT_COMMANDS:
         check_environment()
     if isinstance(getattr(args, "out", None), Path):
-        check_output_dir(args.out)
+        check_output_dir(args.out, COMMAND_LINE)
 
 
 def _parser() -> argparse.ArgumentParser:

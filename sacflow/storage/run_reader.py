@@ -75,8 +75,9 @@ def not_a_run(path: Path, problem: str) -> str:
     if not head:
         what = "an empty file, not a run file"
     elif (head.startswith(_HDF5_SIGNATURE) or head.startswith(_CDF_SIGNATURE)) and _opens(path):
-        what = ("a netCDF file, but not a sacflow run (no 'step' dimension): give a <name>.nc "
-                "written by `sacflow run`")
+        what = (f"a netCDF file, but not a sacflow run ({problem or 'no step dimension'}): a "
+                "comparison's output, or another program's? Give a <name>.nc written by "
+                "`sacflow run`")
         problem = ""
     elif head.startswith(_HDF5_SIGNATURE) or head.startswith(_CDF_SIGNATURE):
         what = ("a damaged or truncated netCDF file (written while the disk filled up, or "
@@ -181,7 +182,7 @@ class RunInfo:
     def describe(self) -> str:
         """Say in a few words what is stored, for messages."""
         if self.unreadable:
-            return f"a file that is not a readable run ({self.problem})"
+            return not_a_run(self.path, self.problem).removeprefix(f"{self.path}: ")
         if self.complete:
             return f"a finished run of case {self.case_id} ({self.steps} steps)"
         if self.parts:
@@ -193,7 +194,7 @@ class RunInfo:
     def report(self) -> str:
         """Write a few lines for ``sacflow info``: what is stored, of which case, and its state."""
         lines = [f"{self.path}: {self.describe()}"]
-        if self.attrs:
+        if self.attrs and not self.unreadable:
             stored = self.case
             lines.append(f"  case: {stored.name if stored else '?'} (id {self.case_id}"
                          + (f", asked as {self.attrs['requested_case_id']}"
@@ -238,8 +239,12 @@ def run_info(path: str | Path) -> RunInfo:
                 attrs = {k: nc.getncattr(k) for k in nc.ncattrs()}
                 steps = len(nc.dimensions["step"])
                 variables = tuple(name for name in VARIABLES if name in nc.variables)
-        except (OSError, KeyError, RuntimeError) as exc:
+        except KeyError as exc:  # a netCDF file without a step dimension
+            return RunInfo(path, problem=f"no {exc} dimension", unreadable=True)
+        except (OSError, RuntimeError) as exc:
             return RunInfo(path, problem=str(exc) or type(exc).__name__, unreadable=True)
+        if "case_id" not in attrs:  # a netCDF file of steps, but not a run (a compare output)
+            return RunInfo(path, attrs=attrs, problem="no case_id attribute", unreadable=True)
         return RunInfo(path, complete=bool(attrs.get("complete")), attrs=attrs, steps=steps,
                        variables=variables)
     parts, damaged, problem = sound_parts(parts_dir(path))
@@ -284,9 +289,6 @@ def open_run(path: str | Path, lazy: bool = False) -> xr.Dataset:
         info = run_info(path)
         if info.unreadable:
             raise RunFileError(not_a_run(path, info.problem))
-        if info.case_id is None:
-            raise RunFileError(f"{path}: a netCDF file, but not a sacflow run (no case_id "
-                               "attribute): give a <name>.nc written by `sacflow run`")
         try:
             return xr.open_dataset(path) if lazy else _load(path)
         except (OSError, ValueError, RuntimeError) as exc:

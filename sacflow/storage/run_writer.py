@@ -269,8 +269,8 @@ def replace_message(info: RunInfo, case: Case) -> str:
             if more:
                 lines.append(f"  ... and {more} more")
     lines.append(
-        "Nothing was changed. To replace it, run again with --overwrite; to keep it, use "
-        "another --out folder or another case name."
+        "Nothing was changed. To replace it, run again with --overwrite (overwrite=True from "
+        "Python); to keep it, use another --out folder (out_dir) or another case name."
     )
     return "\n".join(lines)
 
