@@ -223,13 +223,15 @@ def _validate(args: argparse.Namespace) -> int:
 def _info(args: argparse.Namespace) -> int:
     from sacflow.storage.run_reader import run_info
 
-    status = 0
+    empty = []
     for path in args.runs:
         info = run_info(path)
         print(info.report())
         if not (info.complete or info.parts):
-            status = EXIT_RUN_FAILED
-    return status
+            empty.append(str(path))
+    if empty:
+        _error(f"no run stored at {', '.join(empty)}")
+    return EXIT_RUN_FAILED if empty else 0
 
 
 def _cache(args: argparse.Namespace) -> int:
