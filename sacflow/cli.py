@@ -10,7 +10,9 @@ and the ``--out`` folder is checked for writing (:mod:`sacflow.storage.output_di
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
+import os
 import sys
 import time
 from collections.abc import Sequence
@@ -18,7 +20,7 @@ from pathlib import Path
 
 from sacflow.compare.command import add_compare_command
 from sacflow.config.schema import Case, case_json_schema
-from sacflow.errors import ConfigError, SacflowError
+from sacflow.errors import ConfigError, InputError, SacflowError
 from sacflow.storage.case_file import load_case
 
 __all__ = ["main"]
@@ -26,6 +28,9 @@ __all__ = ["main"]
 EXIT_RUN_FAILED = 1
 EXIT_CONFIG = 2
 EXIT_INTERRUPTED = 130
+#: Exit code of a command whose reader went away (``sacflow schema | head``): 128 + SIGPIPE,
+#: as a command killed by the signal would give.
+EXIT_BROKEN_PIPE = 141
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -34,9 +39,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         _check_before_work(args)
         return args.handler(args)
-    except ConfigError as exc:
+    except InputError as exc:
         _error(exc)
         return EXIT_CONFIG
+    except BrokenPipeError:  # the reader has what it wanted: no message, no flush at exit
+        with contextlib.suppress(OSError, ValueError):  # stdout may be no file (in tests)
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return EXIT_BROKEN_PIPE
     except (SacflowError, OSError) as exc:
         _error(exc)
         return EXIT_RUN_FAILED
@@ -60,12 +69,12 @@ def _check_before_work(args: argparse.Namespace) -> None:
     here: the folder is made when the first file is written.
     """
     from sacflow.machine.environment import check_environment
-    from sacflow.storage.output_dir import check_output_dir
+    from sacflow.storage.output_dir import COMMAND_LINE, check_output_dir
 
     if args.command in _ENVIRONMENT_COMMANDS:
         check_environment()
     if isinstance(getattr(args, "out", None), Path):
-        check_output_dir(args.out)
+        check_output_dir(args.out, COMMAND_LINE)
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -214,13 +223,15 @@ def _validate(args: argparse.Namespace) -> int:
 def _info(args: argparse.Namespace) -> int:
     from sacflow.storage.run_reader import run_info
 
-    status = 0
+    empty = []
     for path in args.runs:
         info = run_info(path)
         print(info.report())
         if not (info.complete or info.parts):
-            status = EXIT_RUN_FAILED
-    return status
+            empty.append(str(path))
+    if empty:
+        _error(f"no run stored at {', '.join(empty)}")
+    return EXIT_RUN_FAILED if empty else 0
 
 
 def _cache(args: argparse.Namespace) -> int:

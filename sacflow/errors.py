@@ -1,7 +1,8 @@
 """Exceptions raised by sacflow.
 
 Every failure a user can cause or meet is a :class:`SacflowError`: the command line prints its
-message (never a traceback) and exits with 2 for a :class:`ConfigError`, 1 for anything else.
+message (never a traceback) and exits with 2 for an :class:`InputError` (a :class:`ConfigError`,
+a file given as a run that is not one, a wrong comparison option), 1 for anything else.
 Numerical failures are raised, never returned as a flag to forget (STYLE 7).
 """
 
@@ -13,6 +14,7 @@ __all__ = [
     "ConvergenceError",
     "EnvironmentVariableError",
     "GridTooLargeError",
+    "InputError",
     "OutputPathError",
     "SacflowError",
 ]
@@ -22,7 +24,11 @@ class SacflowError(Exception):
     """Base class of every error sacflow raises on purpose."""
 
 
-class ConfigError(SacflowError):
+class InputError(SacflowError):
+    """Something the user gave is wrong (a description, a file, an option): fix it, run again."""
+
+
+class ConfigError(InputError):
     """A case or campaign description is invalid; ``str()`` is a short, field-named message."""
 
 

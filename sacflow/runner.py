@@ -264,6 +264,10 @@ def run(case: Case | str | Path, out_dir: str | Path = "runs", *, progress: bool
 
     Writes ``out_dir/<case.name>.nc`` like ``sacflow run`` (resuming a partial run) and returns
     the :class:`xarray.Dataset` from :func:`sacflow.storage.run_reader.open_run`.
+
+    ``kwargs`` are those of :func:`run_case`: ``resume=False`` recomputes the case from its
+    first step (``sacflow run --restart``), ``overwrite=True`` replaces a run of another case
+    stored under its name (``--overwrite``), ``simulation_factory`` builds the simulation.
     """
     from sacflow.storage.case_file import load_case
     from sacflow.storage.run_reader import open_run

@@ -22,6 +22,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import psutil
@@ -31,16 +32,19 @@ from test_store import make_coords, make_state
 import sacflow.campaign as campaign_module
 from sacflow import runner
 from sacflow.campaign import (
+    CampaignConflictError,
     case_names,
     expand_campaign,
     load_campaign,
     run_campaign,
 )
 from sacflow.campaign import cluster as cluster_module
+from sacflow.campaign.opening import open_campaign
 from sacflow.cli import main
 from sacflow.config.schema import NAME_PATTERN, Case
 from sacflow.errors import ConfigError, ConvergenceError
 from sacflow.machine.malloc import MALLOC_ENV
+from sacflow.machine.resources import available_memory
 from sacflow.storage.case_file import load_case
 from sacflow.storage.run_reader import completed_steps, is_complete, open_run
 
@@ -745,7 +749,7 @@ def test_unreachable_scheduler_is_a_clear_error(tmp_path, capsys):
 
 
 def test_campaign_never_overwrites_a_run_of_another_case(folder, shared_cluster):
-    """A case whose name already holds another case's run fails with the reason; asked, it runs."""
+    """Names holding other cases' runs: the re-run refuses, manifest and runs untouched (#31)."""
     base = (folder / "base.toml").read_text()
     (folder / "fake-base.toml").write_text(base)
     sweep = '[[sweep]]\nmode = "zip"\nparameters = { "grid.nx" = [16, 24] }'
@@ -755,15 +759,64 @@ def test_campaign_never_overwrites_a_run_of_another_case(folder, shared_cluster)
                          simulation_factory=fake_simulation)
     assert first.counts()["done"] == 2, first.table()
     stored = (out / "keep-nx16.nc").read_bytes()
+    manifest = first.manifest.read_bytes()
 
-    (folder / "fake-base.toml").write_text(base.replace("nz = 3", "nz = 4"))  # another case
-    second = run_campaign(load_campaign(path), out, scheduler=shared_cluster, progress=False,
-                          simulation_factory=fake_simulation)
-    assert len(second.failed) == 2 and (out / "keep-nx16.nc").read_bytes() == stored
-    error = second.failed[0].error
-    assert "grid.nz: 3 -> 4" in error and "--overwrite" in error and second.failed[0].traceback \
-        is None
+    # the issue's sequence: the same campaign again with --set grid.nz=... (other case ids)
+    with pytest.raises(CampaignConflictError) as caught:
+        run_campaign(load_campaign(path, ["grid.nz=4"]), out, scheduler=shared_cluster,
+                     progress=False, simulation_factory=fake_simulation)
+    error = str(caught.value)
+    assert "2 of 2 cases" in error and "grid.nz: 3 -> 4" in error and "--overwrite" in error
+    assert "--out" in error and "keep-nx16.nc" in error
+    assert first.manifest.read_bytes() == manifest and (out / "keep-nx16.nc").read_bytes() == stored
+    opened = open_campaign(out)
+    try:
+        assert list(opened.summary["status"].values) == ["done", "done"]
+        assert opened.fields["keep-nx16"].ds.sizes["x3"] == 3
+    finally:
+        opened.close()
 
-    third = run_campaign(load_campaign(path), out, scheduler=shared_cluster, progress=False,
-                         simulation_factory=fake_simulation, overwrite=True)
+    # the CLI says the same, exit code 2, no traceback
+    main_args = ["campaign", str(path), "--out", str(out), "--scheduler", shared_cluster,
+                 "--set", "grid.nz=4", "--no-progress"]
+    assert main(main_args) == 2
+    assert first.manifest.read_bytes() == manifest
+
+    third = run_campaign(load_campaign(path, ["grid.nz=4"]), out, scheduler=shared_cluster,
+                         progress=False, simulation_factory=fake_simulation, overwrite=True)
     assert third.counts()["done"] == 2, third.table()
+
+
+def test_no_more_local_workers_than_cases_fit_in_memory():
+    """Issue #31: as many single-threaded workers as the largest case fits in memory."""
+    available = available_memory()
+    with cluster_module.connect(None, None, 3, largest_task=int(0.6 * available)) as client:
+        assert len(client.nthreads()) == 1, "two cases of 60 % of the memory do not fit"
+        assert set(client.nthreads().values()) == {1}, "one case at a time"
+
+
+def test_tasks_declare_their_memory_to_workers_declaring_theirs(folder):
+    """A cluster of one's own, its workers declaring memory: tasks declare their estimates,
+    at most what a worker has (a task asking more would wait for ever: here every case's
+    estimate is above the 1 MB declared, so the cases run one at a time and finish)."""
+    from distributed import Client, LocalCluster
+
+    with LocalCluster(n_workers=1, threads_per_worker=2, processes=True,
+                      dashboard_address=None,
+                      resources={cluster_module.MEMORY_RESOURCE: 1e6}) as local, \
+            Client(local) as client:
+        assert cluster_module.worker_memory(client) == 1e6
+        summary = run_campaign(load_campaign(fake_campaign(folder)), folder / "out",
+                               scheduler=local.scheduler_address, progress=False,
+                               simulation_factory=fake_simulation)
+        assert summary.counts()["done"] == 4, summary.table()
+
+
+def test_tasks_declare_memory_only_where_every_worker_declares_it():
+    def client(*resources):
+        workers = {str(i): {"resources": r} for i, r in enumerate(resources)}
+        return SimpleNamespace(scheduler_info=lambda: {"workers": workers})
+
+    assert cluster_module.worker_memory(client({"memory": 4e9}, {"memory": 2e9})) == 2e9
+    assert cluster_module.worker_memory(client({"memory": 4e9}, {})) is None
+    assert cluster_module.worker_memory(client()) is None

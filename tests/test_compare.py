@@ -579,7 +579,7 @@ def test_errors_name_the_problem(tmp_path, hertz_case):
         hertz_check(tmp_path / "missing.nc")
     text = tmp_path / "notes.nc"
     text.write_text("not netcdf")
-    with pytest.raises(CompareError, match="not a readable"):
+    with pytest.raises(CompareError, match="notes.nc: not a netCDF file"):
         hertz_check(text)
     xr.Dataset({"a": ("x", [1.0])}).to_netcdf(tmp_path / "plain.nc")
     with pytest.raises(CompareError, match="not a sacflow run"):
@@ -610,18 +610,18 @@ def test_cli_compare(tmp_path, hertz_case, capsys):
     assert "p0_error" in out and "hertz-hertz-check.nc" in out
     assert (tmp_path / "cmp" / "hertz-hertz-check.png").is_file()
 
-    assert main(["compare", "hertz-check", str(tmp_path / "hertz.nc"), "--depth", "1e-6"]) == 1
+    assert main(["compare", "hertz-check", str(tmp_path / "hertz.nc"), "--depth", "1e-6"]) == 2
     assert "--depth does not apply to hertz-check" in capsys.readouterr().err
-    assert main(["compare", "elastic-vs-plastic", str(tmp_path / "hertz.nc")]) == 1
+    assert main(["compare", "elastic-vs-plastic", str(tmp_path / "hertz.nc")]) == 2
     assert "takes 2 run file(s)" in capsys.readouterr().err
     assert (
         main(
             ["compare", "residual-map", str(tmp_path / "hertz.nc"), "--out", str(tmp_path / "cmp")]
         )
-        == 1
+        == 2
     )
     assert "error:" in capsys.readouterr().err
-    assert main(["compare", "case-vs-reference", str(tmp_path / "hertz.nc")]) == 1
+    assert main(["compare", "case-vs-reference", str(tmp_path / "hertz.nc")]) == 2
     assert "needs --reference, --variable" in capsys.readouterr().err
 
 

@@ -102,7 +102,7 @@ def test_cli_residual_map_default_and_out_of_box_depth(tmp_path, case, capsys):
     out = ["--out", str(tmp_path / "cmp")]
     assert main(["compare", "residual-map", run, *out]) == 0
     assert "map_min" in capsys.readouterr().out
-    assert main(["compare", "residual-map", run, *out, "--depth", "65e-6"]) == 1
+    assert main(["compare", "residual-map", run, *out, "--depth", "65e-6"]) == 2
     err = capsys.readouterr().err
     assert err.startswith("error: ") and "--depth 6.5e-05 m" in err and "Traceback" not in err
 

@@ -10,7 +10,10 @@ files -- writes them to a temporary folder as TOML and drives ``sacflow.cli.main
   fewer;
 * ``campaign`` on mutated campaign files, with the dask part replaced by a stand-in (no
   cluster is started: the campaign is loaded, expanded, checked and its manifest written; the
-  real cluster runs the smoke campaign in ``tests/test_campaign.py``).
+  real cluster runs the smoke campaign in ``tests/test_campaign.py``);
+* ``validate``, ``cache info`` and ``info`` under odd ``SACFLOW_*`` environment variables;
+* ``compare`` stages given a tiny real run, a case file, garbage, a truncated run, a manifest,
+  a folder or a missing file, with odd option values (exit code 0, or 2 with a message).
 
 Every outcome must be exit code 0, or a non-zero code with an ``error: ...`` message; an
 exception escaping ``main`` or a "Traceback" in the output fails the test. Deterministic
@@ -24,6 +27,7 @@ import copy
 import io
 import json
 import math
+import os
 import re
 import tempfile
 import tomllib
@@ -357,7 +361,7 @@ def campaign_example(draw) -> tuple[str, dict[str, Any], list[str], tuple[str, .
 
 
 @contextlib.contextmanager
-def _stand_in_client(scheduler, workers, tasks):
+def _stand_in_client(scheduler, workers, tasks, largest_task=0):
     """No cluster: a client with no workers (the tasks are not run)."""
     yield SimpleNamespace(nthreads=dict, scheduler=SimpleNamespace(address="inproc://fuzz"),
                           scheduler_info=lambda: {"services": {}})
@@ -389,3 +393,132 @@ def test_fuzz_campaign(monkeypatch: pytest.MonkeyPatch) -> None:
     print(f"\nfuzz campaign: {dict(OUTCOMES['campaign'])}")
     assert OUTCOMES["campaign"]["examples"] >= CAMPAIGN_EXAMPLES // 2
     assert OUTCOMES["campaign"][0] > 0 and OUTCOMES["campaign"][2] > 0
+
+
+# --------------------------------------------------------------------------- environment
+#: The SACFLOW_* variables and values to try (good, bad, odd); a file path is added per example.
+ENVIRONMENT = ("SACFLOW_FFT_THREADS", "SACFLOW_FFTW_PLANNER", "SACFLOW_CACHE_DIR",
+               "SACFLOW_CACHE_MAX_BYTES")
+ENV_VALUES = ("", "0", "-1", "1", "2", " 4 ", "1.5", "abc", "nan", "inf", "1e3", "0x10",
+              "99999999999999999999", "measure", "ESTIMATE", "patient", "off", "OFF", "none",
+              "/proc/sacflow", "/dev/null", "~/nowhere/cache", "20G", "500M", "1T", "-5M", "0B",
+              "12 GiB", "1.5G", "G", "<file>")
+ENV_COMMANDS = (("validate",), ("cache", "info"), ("info",))
+ENV_EXAMPLES = 150
+
+
+@st.composite
+def environment_example(draw) -> tuple[dict[str, str], tuple[str, ...]]:
+    names = draw(st.lists(st.sampled_from(ENVIRONMENT), min_size=1, max_size=3, unique=True))
+    return ({name: draw(st.sampled_from(ENV_VALUES)) for name in names},
+            draw(st.sampled_from(ENV_COMMANDS)))
+
+
+@settings(FUZZ, max_examples=ENV_EXAMPLES)
+@given(example=environment_example())
+def _fuzz_environment(example) -> None:
+    values, command = example
+    with tempfile.TemporaryDirectory() as tmp:
+        a_file = Path(tmp) / "a-file"
+        a_file.write_text("")
+        env = {k: str(a_file) if v == "<file>" else v for k, v in values.items()}
+        argv = list(command)
+        if command[0] == "validate":
+            argv += [str(CONFIGS / "hertz-elastic.toml"), "--set=grid.nx=16", "--set=grid.ny=16"]
+        elif command[0] == "info":
+            argv += [str(a_file)]
+        with _environment(env):
+            code, out, err = run_cli(argv)
+    check_outcome("environment", code, out, err, (values, command))
+    if command[0] == "validate":
+        assert code in (0, 2), f"exit {code} after {values}:\n{err}"
+
+
+@contextlib.contextmanager
+def _environment(values: dict[str, str]) -> Iterator[None]:
+    saved = {k: os.environ.get(k) for k in values}
+    os.environ.update(values)
+    try:
+        yield
+    finally:
+        for key, value in saved.items():
+            if value is None:
+                os.environ.pop(key, None)
+            else:
+                os.environ[key] = value
+
+
+def test_fuzz_environment() -> None:
+    """SACFLOW_* variables of any value: a result or a clear message, never a traceback."""
+    OUTCOMES["environment"] = Counter()
+    _fuzz_environment()
+    print(f"\nfuzz environment: {dict(OUTCOMES['environment'])}")
+    assert OUTCOMES["environment"]["examples"] >= ENV_EXAMPLES // 2
+    assert OUTCOMES["environment"][0] > 0 and OUTCOMES["environment"][2] > 0
+
+
+# --------------------------------------------------------------------------- compare
+#: What a compare stage may be given as a run: a real tiny run, and files that are not runs.
+COMPARE_INPUTS = ("run", "run", "case", "garbage", "truncated", "manifest", "missing", "folder",
+                  "netcdf")
+COMPARE_VALUES = ("0", "-1", "-9e8", "1e-6", "2.5e-5", "nan", "inf", "-inf", "abc", "1e300", "",
+                  "last", "max_load", "99", "-3", "x2=0", "component=11", "=", "11", "uniaxial")
+COMPARE_EXAMPLES = 120
+
+
+@st.composite
+def compare_example(draw) -> tuple[str, list[str], list[str]]:
+    from sacflow.compare.command import STAGES
+
+    stage = draw(st.sampled_from(sorted(STAGES)))
+    n = {"1": 1, "2": 2, "+": 2}[STAGES[stage].runs]
+    if draw(st.integers(0, 9)) == 0:
+        n = draw(st.integers(1, 3))  # sometimes the wrong count
+    inputs = [draw(st.sampled_from(COMPARE_INPUTS)) for _ in range(n)]
+    options = []
+    names = list(STAGES[stage].options) + ["depth", "step"]
+    for name in draw(st.lists(st.sampled_from(names), max_size=3, unique=True)):
+        options += [f"--{name.replace('_', '-')}", draw(st.sampled_from(COMPARE_VALUES))]
+    return stage, inputs, options
+
+
+_COMPARE_FILES: dict[str, Path] = {}
+
+
+@settings(FUZZ, max_examples=COMPARE_EXAMPLES)
+@given(example=compare_example())
+def _fuzz_compare(example) -> None:
+    stage, inputs, options = example
+    with tempfile.TemporaryDirectory() as tmp:
+        argv = ["compare", stage, *(str(_COMPARE_FILES[i]) for i in inputs), "--out",
+                str(Path(tmp) / "cmp"), *options]
+        code, out, err = run_cli(argv)
+    check_outcome("compare", code, out, err, (stage, inputs, options))
+    assert code in (0, 2), f"exit {code} after {(stage, inputs, options)}:\n{err}"
+
+
+def test_fuzz_compare(tmp_path_factory) -> None:
+    """Compare stages on runs and non-runs, odd options: a result or exit 2 with a message."""
+    import numpy as np
+    import xarray as xr
+
+    folder = tmp_path_factory.mktemp("compare-inputs")
+    case = CONFIGS / "hertz-elastic.toml"
+    code, _, err = run_cli(["run", str(case), "--out", str(folder), "--no-progress",
+                            f"--set=grid.nx={TINY_CELLS}", f"--set=grid.ny={TINY_CELLS}",
+                            f"--set=grid.nz={TINY_LAYERS}"])
+    assert code == 0, err
+    run = folder / "hertz-elastic.nc"
+    files = {"run": run, "case": case, "missing": folder / "absent.nc", "folder": folder,
+             "garbage": folder / "garbage.nc", "truncated": folder / "truncated.nc",
+             "manifest": folder / "study.manifest.json", "netcdf": folder / "other.nc"}
+    files["garbage"].write_bytes(b"\x00garbage" * 64)
+    files["truncated"].write_bytes(run.read_bytes()[: run.stat().st_size // 2])
+    files["manifest"].write_text('{"campaign": "study", "cases": []}')
+    xr.Dataset({"a": ("x", np.arange(3.0))}).to_netcdf(files["netcdf"])
+    _COMPARE_FILES.update(files)
+    OUTCOMES["compare"] = Counter()
+    _fuzz_compare()
+    print(f"\nfuzz compare: {dict(OUTCOMES['compare'])}")
+    assert OUTCOMES["compare"]["examples"] >= COMPARE_EXAMPLES // 2
+    assert OUTCOMES["compare"][0] > 0 and OUTCOMES["compare"][2] > 0

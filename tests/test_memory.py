@@ -166,3 +166,56 @@ def test_a_large_set_up_is_announced(tmp_path, monkeypatch, capsys):
     case = load_case(HERTZ, ["grid.nx=16", "grid.ny=16", "grid.nz=3"])
     runner.run_case(case, tmp_path, progress=True)
     assert "setting up the operators of 16 × 16 × 3 cells" in capsys.readouterr().out
+
+
+ADDRESS_SPACE_LIMITED = """
+import resource, sys
+from sacflow.errors import GridTooLargeError
+from sacflow.machine.resources import available_memory, process_limit_left
+from sacflow.solver.memory_estimate import check_memory, estimate_memory
+from sacflow.storage.case_file import load_case
+
+case = load_case({config!r}, ["grid.nx=128", "grid.ny=128", "grid.nz=64"])
+need = estimate_memory(case).total
+before = available_memory()
+assert process_limit_left() is None, "no limit yet"
+size = next(int(line.split()[1]) * 1024 for line in open("/proc/self/status")
+            if line.startswith("VmSize:"))
+resource.setrlimit(resource.RLIMIT_AS, (size + need // 2, resource.RLIM_INFINITY))  # ulimit -v
+left = available_memory()
+try:
+    check_memory(case)
+    refused = False
+except GridTooLargeError:
+    refused = True
+print(need, before, left, refused)
+"""
+
+
+def test_available_memory_honours_the_address_space_limit():
+    """``ulimit -v`` below a case's estimate: refused at once (issue #31), not after 108 s."""
+    config = str(Path(__file__).resolve().parents[1] / "configs" / "hertz-elastic.toml")
+    result = subprocess.run(
+        [sys.executable, "-c", ADDRESS_SPACE_LIMITED.format(config=config)],
+        capture_output=True, text=True, timeout=120, check=True,
+    )
+    need, before, left, refused = result.stdout.split()
+    need, before, left = int(need), int(before), int(left)
+    assert left <= need // 2 and left > need // 2 - 64 * 2**20, "the limit minus VmSize"
+    assert left < before
+    assert refused == "True"
+
+
+def test_process_limit_left_is_the_smaller_of_the_limits():
+    script = (
+        "import resource\n"
+        "from sacflow.machine.resources import process_limit_left\n"
+        "s = {l.split(':')[0]: int(l.split()[1]) * 1024 for l in open('/proc/self/status')\n"
+        "     if l.startswith(('VmData', 'VmSize'))}\n"
+        "resource.setrlimit(resource.RLIMIT_DATA, (s['VmData'] + 2**28, resource.RLIM_INFINITY))\n"
+        "resource.setrlimit(resource.RLIMIT_AS, (s['VmSize'] + 2**30, resource.RLIM_INFINITY))\n"
+        "print(process_limit_left())\n"
+    )
+    result = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                            timeout=60, check=True)
+    assert 2**28 - 2**24 < int(result.stdout) <= 2**28, "ulimit -d, the smaller room, counts"

@@ -73,12 +73,14 @@ def test_failed_and_missing_cases_stay_in_the_summary(smoke, tmp_path):
         shutil.copy(path, tmp_path / path.name)
     data = json.loads((smoke / "campaign-smoke.manifest.json").read_text())
     data["cases"][0]["status"] = "failed"
+    (tmp_path / data["cases"][0]["path"]).unlink()  # failed: no file
     (tmp_path / data["cases"][1]["path"]).unlink()  # done, but its file is gone
     (tmp_path / "campaign-smoke.manifest.json").write_text(json.dumps(data))
     opened = sacflow.open_campaign(tmp_path)
     try:
         first, second = (data["cases"][i]["name"] for i in (0, 1))
         assert opened.summary["status"].sel(case=first) == "failed"
+        assert opened.summary["status"].sel(case=second) == "missing"
         for name in (first, second):
             assert np.isnan(float(opened.summary["max_plastic_strain"].sel(case=name)))
             assert np.isnan(float(opened.summary["peak_pressure"].sel(case=name)))
@@ -86,6 +88,27 @@ def test_failed_and_missing_cases_stay_in_the_summary(smoke, tmp_path):
         assert len(opened.fields.children) == len(data["cases"]) - 2
     finally:
         opened.close()
+
+
+def test_the_run_files_decide_not_the_manifest(smoke, tmp_path):
+    """Issue #31: finished runs recorded as failed (an older sacflow's re-run) still open."""
+    for path in smoke.glob("*.nc"):
+        shutil.copy(path, tmp_path / path.name)
+    data = json.loads((smoke / "campaign-smoke.manifest.json").read_text())
+    for record in data["cases"]:
+        record["status"] = "failed"
+    (tmp_path / "campaign-smoke.manifest.json").write_text(json.dumps(data))
+    opened = sacflow.open_campaign(tmp_path)
+    try:
+        assert set(opened.summary["status"].values) == {"done"}
+        name = data["cases"][0]["name"]
+        assert opened.fields[name].ds.sizes["step"] >= 1
+    finally:
+        opened.close()
+    data["cases"][0]["case_id"] = "0123456789ab"  # the file holds another case than recorded
+    (tmp_path / "campaign-smoke.manifest.json").write_text(json.dumps(data))
+    with pytest.raises(CampaignOpenError, match=r"manifest records case 0123456789ab"):
+        sacflow.open_campaign(tmp_path)
 
 
 def test_no_manifest_or_several_are_named(smoke, tmp_path):

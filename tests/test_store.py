@@ -226,6 +226,7 @@ def test_crash_leaves_complete_steps_readable(tmp_path, case, coords):
     # the crash: a half-written temporary part, no consolidated file, no close()
     (parts_dir(path) / ".step-000002.nc.999.tmp").write_bytes(b"\x89HDF\r\n\x1a\ngarbage")
     assert not path.exists()
+    del writer  # the crashed writer is gone, and its run lock with it
 
     ds = open_run(path)
     assert ds.sizes["step"] == 2 and ds.attrs["complete"] == 0
@@ -257,6 +258,7 @@ def test_resume_rules(tmp_path, case, coords):
     path = tmp_path / "run.nc"
     writer = RunWriter(path, case, coords)
     writer.append(make_state(0, coords))
+    writer.abort()  # interrupted
     other = case.model_copy(update={"grid": case.grid.model_copy(update={"nz": 5})})
     with pytest.raises(RunExistsError, match="interrupted run") as err:
         RunWriter(path, other, coords)
@@ -295,6 +297,7 @@ def test_uniform_fields_are_recorded_by_value_in_parts(tmp_path, case, coords):
     writer = RunWriter(path, case, coords)
     for state in states[:2]:
         writer.append(state)
+    writer.abort()  # interrupted
     uniform = {"plastic_strain", "equivalent_plastic_strain", "residual_stress",
                "yield_stress", "residual_displacement"}
     part = next(parts_dir(path).glob("step-000001-*.nc"))

@@ -36,7 +36,13 @@ from sacflow.campaign.expansion import (
     load_campaign,
 )
 from sacflow.campaign.manifest import CampaignSummary, CaseRecord, Status
-from sacflow.campaign.running import WORKER_DIED, SimulationFactory, run_campaign, run_one
+from sacflow.campaign.running import (
+    WORKER_DIED,
+    CampaignConflictError,
+    SimulationFactory,
+    run_campaign,
+    run_one,
+)
 from sacflow.config.problems import MAX_PROBLEMS
 
 __all__ = [
@@ -52,6 +58,7 @@ __all__ = [
     "WORKER_ENV",
     "WORKER_PRELOAD",
     "CampaignCase",
+    "CampaignConflictError",
     "CampaignSummary",
     "CaseRecord",
     "SimulationFactory",

@@ -21,11 +21,13 @@ from typing import Any
 
 from sacflow.errors import ConfigError, SacflowError
 from sacflow.machine.malloc import MALLOC_ENV
+from sacflow.machine.resources import available_memory
 
 __all__ = [
     "FFT_THREADS_ENV",
     "FORK_SERVER_LAST",
     "MAX_PORT",
+    "MEMORY_RESOURCE",
     "PLASTIC_PRELOAD",
     "SCHEDULER_FORM",
     "SCHEDULER_SCHEMES",
@@ -37,6 +39,7 @@ __all__ = [
     "saved_environ",
     "start_fork_server",
     "worker_environ",
+    "worker_memory",
 ]
 
 #: Environment variable read by the FFT operators; campaign workers default to 1 thread each.
@@ -57,6 +60,9 @@ PLASTIC_PRELOAD = ("scipy.sparse.linalg", "sacflow.kernels.eigenstrain",
                    "sacflow.kernels.pair_products")
 #: ... and last, a module that freezes the garbage collector's view of all that (gc.freeze).
 FORK_SERVER_LAST = "sacflow.campaign.gc_freeze"
+#: The dask worker resource a case's memory estimate is declared in [bytes]: a worker runs no
+#: more cases at once than fit in what it declares (``dask worker --resources memory=64e9``).
+MEMORY_RESOURCE = "memory"
 #: Transport schemes of a dask scheduler address (``--scheduler``); none means tcp.
 SCHEDULER_SCHEMES = ("tcp", "tls", "ws", "wss", "ucx")
 #: Largest TCP port number.
@@ -94,8 +100,17 @@ def check_scheduler_address(address: str) -> None:
 
 
 @contextmanager
-def connect(scheduler: str | None, workers: int | None, tasks: int) -> Iterator[Any]:
+def connect(
+    scheduler: str | None, workers: int | None, tasks: int, largest_task: int = 0
+) -> Iterator[Any]:
     """Yield a dask client: on ``scheduler``, or on a new local cluster closed at the end.
+
+    Without ``workers``, the local cluster has no more single-threaded workers than cases of
+    ``largest_task`` bytes fit in :func:`~sacflow.machine.resources.available_memory` (at least
+    one): each runs one case at a time, so the machine never runs more cases than fit. Its
+    workers declare no :data:`MEMORY_RESOURCE` (dask hands resource-restricted tasks to a worker
+    in arrival order, not in the longest-first order of submission); workers of a cluster of
+    one's own that declare it get tasks declaring their estimates (:func:`worker_memory`).
 
     Parameters
     ----------
@@ -105,6 +120,8 @@ def connect(scheduler: str | None, workers: int | None, tasks: int) -> Iterator[
         Worker processes of the local cluster (default: one per core).
     tasks : int
         Number of tasks to run: the local cluster has no more workers than that.
+    largest_task : int
+        Estimated memory of the largest task [bytes] (0: not known).
 
     Raises
     ------
@@ -117,8 +134,24 @@ def connect(scheduler: str | None, workers: int | None, tasks: int) -> Iterator[
         with _remote_client(scheduler) as client:
             yield client
     else:
-        with _local_client(min(workers or _cores(), tasks)) as client:
+        available = available_memory()
+        fit = max(1, available // largest_task) if largest_task else tasks
+        n = min(workers or min(_cores(), fit), tasks)
+        with _local_client(n) as client:
             yield client
+
+
+def worker_memory(client: Any) -> int | None:
+    """Smallest :data:`MEMORY_RESOURCE` of ``client``'s workers [bytes]; None if one has none.
+
+    Tasks declare their memory estimate only to clusters whose every worker declares it
+    (``dask worker --resources memory=64e9``): elsewhere dask would never run them.
+    """
+    workers = client.scheduler_info().get("workers", {}).values()
+    amounts = [w.get("resources", {}).get(MEMORY_RESOURCE) for w in workers]
+    if not amounts or any(a is None for a in amounts):
+        return None
+    return int(min(amounts))
 
 
 @contextmanager

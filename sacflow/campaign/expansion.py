@@ -69,8 +69,15 @@ def load_campaign(path: str | Path, overrides: Sequence[str] = ()) -> Campaign:
     """
     path = Path(path)
     source = str(path)
+    data = read_file(path)
+    if "base" not in data and "sweep" not in data and {"body", "grid", "load_path"} & set(data):
+        raise ConfigError(
+            f"{path}: a case file ([body], [grid], [[load_path]]), not a campaign file: run it "
+            f"with `sacflow run {path} --out DIR`, or make it the base of a campaign "
+            f"(base = \"{path.name}\" and [[sweep]] blocks: docs/campaigns.md)"
+        )
     try:
-        campaign = Campaign.model_validate(read_file(path))
+        campaign = Campaign.model_validate(data)
     except ValidationError as exc:
         errors = drop_consequential(exc.errors(include_url=False))
         raise ConfigError(_report(source, [_campaign_problem(e) for e in errors])) from None

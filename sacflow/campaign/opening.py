@@ -13,7 +13,9 @@ fails and nested concatenation is mostly NaN. A campaign opens instead as
   name) holding its run Dataset, opened lazily: nothing is read until used.
 
 Failed, pending or missing cases stay in the summary (their status, NaN results) and are absent
-from the tree.
+from the tree. The run files decide, not the manifest: a complete run of the recorded case is
+opened whatever its record says (its status then reads ``done``), a finished case whose file is
+gone reads ``missing``, and a file holding another case's run is an error naming it.
 """
 
 from __future__ import annotations
@@ -33,7 +35,7 @@ from sacflow.compare.campaign import (
     summary_dataset,
 )
 from sacflow.errors import SacflowError
-from sacflow.storage.run_reader import open_run
+from sacflow.storage.run_reader import open_run, run_info
 
 __all__ = ["MANIFEST_SUFFIX", "CampaignOpenError", "CampaignResults", "open_campaign"]
 
@@ -134,11 +136,12 @@ def open_campaign(source: str | Path) -> CampaignResults:
     manifest = find_manifest(source)
     name, records = _records(manifest)
     runs: dict[str, xr.Dataset] = {}
-    rows = []
+    rows: list[dict[str, Any]] = []
+    statuses = [str(r.get("status", "")) for r in records]
     try:
         for record in records:
             path = manifest.parent / Path(str(record.get("path", f"{record['name']}.nc"))).name
-            ds = _open_finished(path, record)
+            ds, statuses[len(rows)] = _open_finished(path, record)
             if ds is None:
                 rows.append(dict.fromkeys(RESULT_NAMES, np.nan))
                 continue
@@ -156,7 +159,7 @@ def open_campaign(source: str | Path) -> CampaignResults:
         {k: [r.get("parameters", {}).get(k) for r in records] for k in parameters},
         {
             "case_id": [str(r.get("case_id", "")) for r in records],
-            "status": [str(r.get("status", "")) for r in records],
+            "status": statuses,
         },
         attrs={"title": f"campaign {name}", "campaign": name, "manifest": str(manifest)},
     )
@@ -169,11 +172,36 @@ def open_campaign(source: str | Path) -> CampaignResults:
     return CampaignResults(name, manifest, summary, fields)
 
 
-def _open_finished(path: Path, record: dict[str, Any]) -> xr.Dataset | None:
-    """Return the run of a finished case, opened lazily; None if not finished or missing."""
-    if record.get("status") not in _FINISHED or not path.exists():
-        return None
+def _open_finished(path: Path, record: dict[str, Any]) -> tuple[xr.Dataset | None, str]:
+    """Open the run of a case as it is on disk; return it (None if not finished) and a status.
+
+    The run file, not the manifest, decides (the manifest lags behind the files, and an older
+    sacflow could rewrite a finished case's record as failed): a complete file of the record's
+    case is opened, whatever the record says ("done" when it said otherwise); no file or an
+    interrupted run leaves the case out with the record's status (``missing`` for a finished
+    record without its file, ``pending`` for one whose file is interrupted).
+
+    Raises
+    ------
+    CampaignOpenError
+        The file holds a run of another case, or is not a readable run.
+    """
+    status = str(record.get("status", ""))
+    info = run_info(path)
+    if not info.exists:
+        return None, "missing" if status in _FINISHED else status
+    if info.unreadable:
+        raise CampaignOpenError(f"{path}: not a readable run file ({info.problem})")
+    case_id = str(record.get("case_id", ""))
+    if case_id and not info.matches(case_id):
+        raise CampaignOpenError(
+            f"{path} holds {info.describe()}, the manifest records case {case_id}: it was "
+            "replaced after this campaign ran (sacflow run --overwrite or another campaign "
+            "with --overwrite); run the campaign again to recompute it"
+        )
+    if not info.complete:
+        return None, status if status not in _FINISHED else "pending"
     try:
-        return open_run(path, lazy=True)
+        return open_run(path, lazy=True), status if status in _FINISHED else "done"
     except (OSError, ValueError, RuntimeError) as exc:
         raise CampaignOpenError(f"{path}: not a readable run file ({exc})") from None

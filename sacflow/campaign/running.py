@@ -25,15 +25,26 @@ from sacflow.campaign.expansion import CampaignCase, expand_campaign, load_campa
 from sacflow.campaign.manifest import CampaignSummary, Manifest
 from sacflow.config.schema import Campaign, Case, Elastic
 from sacflow.errors import ConfigError, SacflowError
+from sacflow.solver.memory_estimate import estimate_memory
 from sacflow.storage.output_dir import prepare_output_dir
 
-__all__ = ["WORKER_DIED", "SimulationFactory", "run_campaign", "run_one"]
+__all__ = [
+    "WORKER_DIED",
+    "CampaignConflictError",
+    "SimulationFactory",
+    "run_campaign",
+    "run_one",
+]
 
 WORKER_DIED = (
     "the worker process died running this case (out of memory, or a crash in compiled code); "
     "see the dask worker logs"
 )
 SimulationFactory = Callable[[Case], Any]
+
+
+class CampaignConflictError(ConfigError):
+    """A campaign's cases are named like stored runs of other cases (see ``overwrite``)."""
 
 
 def run_campaign(
@@ -64,8 +75,9 @@ def run_campaign(
         ``factory(case) -> simulation`` passed to :func:`sacflow.runner.run_case`; it must be
         importable by the workers (a module-level function).
     overwrite : bool
-        Replace runs of other cases stored under the cases' names. Without it such a case is
-        not run and fails with a message naming the file, both ids and the fields that differ.
+        Replace runs of other cases stored under the cases' names. Without it, when a case's
+        name holds a run of another case, nothing is run, the manifest is left as it is and
+        :class:`CampaignConflictError` names the files, both ids and the fields that differ.
 
     Returns
     -------
@@ -84,7 +96,7 @@ def run_campaign(
     cases = expand_campaign(campaign)
     out_dir = prepare_output_dir(out_dir).resolve()
     manifest = Manifest(campaign, cases, out_dir)
-    pending = _skip_complete(cases, manifest, overwrite)
+    pending = _skip_complete(cases, manifest, overwrite)  # refuses before the manifest changes
     if pending and not scheduler:  # its imports overlap the rest, up to the workers' start
         cluster.start_fork_server(
             plastic=any(not isinstance(c.case.body.hardening, Elastic) for c in pending)
@@ -96,12 +108,13 @@ def run_campaign(
     )
     n_workers, dashboard = 0, None
     if pending:
-        with cluster.connect(scheduler, workers, len(pending)) as client:
+        memory = {c.index: estimate_memory(c.case).total for c in pending}
+        with cluster.connect(scheduler, workers, len(pending), max(memory.values())) as client:
             n_workers = len(client.nthreads())
             dashboard = cluster.dashboard(client, local=not scheduler)
             _say(f"dask: {client.scheduler.address}, {n_workers} workers, dashboard {dashboard}")
             _run_pending(client, pending, out_dir, manifest, progress, simulation_factory,
-                         overwrite)
+                         overwrite, memory)
     return CampaignSummary(
         name=campaign.name,
         out_dir=out_dir,
@@ -118,23 +131,52 @@ def _skip_complete(
 ) -> list[CampaignCase]:
     """Mark the cases whose run file is complete as skipped; return the others to run.
 
-    A case whose name holds a run of another case (finished or interrupted) is marked failed
-    with the message of :func:`sacflow.storage.run_writer.replace_message`, unless ``overwrite``.
+    Raises
+    ------
+    CampaignConflictError
+        When a case's name holds a run of another case (finished or interrupted) and not
+        ``overwrite``: nothing is run and the manifest on disk is left as it is, so that the
+        records of the finished runs are never rewritten as failed (issue #31).
     """
     from sacflow.storage.run_reader import run_info
     from sacflow.storage.run_writer import replace_message
 
-    pending = []
+    pending, conflicts = [], []
     for c in cases:
         info = run_info(manifest.records[c.index].path)
         same = info.exists and info.matches(c.case_id)
         if info.complete and same:
             manifest.update(c.index, status="skipped", steps=info.steps)
         elif info.exists and not same and not info.damaged_only and not overwrite:
-            manifest.update(c.index, status="failed", error=replace_message(info, c.case))
+            conflicts.append(replace_message(info, c.case))
         else:
             pending.append(c)
+    if conflicts:
+        raise CampaignConflictError(_conflict_message(manifest, conflicts, len(cases)))
     return pending
+
+
+#: At most this many conflicting cases are described in full in the refusal.
+_SHOWN_CONFLICTS = 3
+
+
+def _conflict_message(manifest: Manifest, conflicts: list[str], total: int) -> str:
+    """One-screen refusal: which names hold other cases' runs, how they differ, the fixes."""
+    out = manifest.path.parent
+    lines = [
+        f"{manifest.campaign.name}: {len(conflicts)} of {total} cases are named like runs of "
+        f"other cases already in {out} (a changed base, --set or sweep gives other case ids "
+        "under the same names). Nothing was run and the manifest was left as it is.",
+    ]
+    for message in conflicts[:_SHOWN_CONFLICTS]:
+        lines += [f"  {line}" for line in message.splitlines()[:-1]]
+    if len(conflicts) > _SHOWN_CONFLICTS:
+        lines.append(f"  ... and {len(conflicts) - _SHOWN_CONFLICTS} more cases")
+    lines.append(
+        "To keep the stored runs, write this campaign to another folder (--out, out_dir) or "
+        "give it another name; to replace them, run again with --overwrite (overwrite=True)."
+    )
+    return "\n".join(lines)
 
 
 def _run_pending(
@@ -145,16 +187,23 @@ def _run_pending(
     progress: bool,
     simulation_factory: SimulationFactory | None,
     overwrite: bool = False,
+    memory: dict[int, int] | None = None,
 ) -> None:
     from distributed import as_completed
 
     # Longest first (dask runs tasks in submission order): a long case started last would keep
     # one worker busy while the others idle. Equal estimates keep the campaign order.
     ordered = sorted(pending, key=_estimated_cost, reverse=True)
+    # Each task declares its memory estimate where the workers declare theirs, so that a worker
+    # never runs more cases at once than fit; never more than a worker has (dask would wait
+    # forever): such a case runs alone, and its worker's memory check decides.
+    per_worker = cluster.worker_memory(client)
     futures = {
         client.submit(
             run_one, c.case.canonical_json(), str(out_dir), simulation_factory, overwrite,
             pure=False,
+            resources=None if per_worker is None or memory is None else {
+                cluster.MEMORY_RESOURCE: min(memory[c.index], per_worker)},
         ): c
         for c in ordered
     }

@@ -24,7 +24,7 @@ import xarray as xr
 
 from sacflow.compare.core import RESULTS, CompareError, RunLike, build, case_name, load_run
 from sacflow.config.dotted import cf_names, flatten
-from sacflow.storage.run_reader import open_run
+from sacflow.storage.run_reader import RunFileError, open_run
 
 __all__ = [
     "RESULT_NAMES",
@@ -56,8 +56,8 @@ def _open(source: RunLike) -> xr.Dataset:
         return load_run(path)  # interrupted run (parts) or a clear error
     try:
         ds = open_run(path, lazy=True)
-    except (OSError, ValueError, RuntimeError) as exc:
-        raise CompareError(f"{path}: not a readable netCDF run file ({exc})") from None
+    except RunFileError as exc:  # damaged, or not a run: what it is, what to do
+        raise CompareError(str(exc)) from None
     ds.attrs.setdefault("source", str(path))
     return load_run(ds)
 

@@ -9,12 +9,14 @@ main command prints as ``error: ...``.
 from __future__ import annotations
 
 import argparse
+import math
+import re
 from dataclasses import dataclass
 from importlib import import_module
 from pathlib import Path
 from typing import Any
 
-__all__ = ["STAGES", "add_compare_command"]
+__all__ = ["NEGATIVE_NUMBER", "STAGES", "add_compare_command", "finite_float"]
 
 
 @dataclass(frozen=True)
@@ -113,6 +115,23 @@ def _step(text: str) -> str | int:
         raise argparse.ArgumentTypeError("use 'last', 'max_load' or a step number") from None
 
 
+def finite_float(text: str) -> float:
+    """Read a number option's value: any finite float (``nan`` and ``inf`` refused at once)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
+    return value
+
+
+#: What argparse takes for a negative number rather than an option: Python 3.11's own pattern
+#: misses exponents (``--bending-limit -9e8`` read as a missing value); this is the pattern of
+#: later Pythons (3.13).
+NEGATIVE_NUMBER = re.compile(r"-\.?\d")
+
+
 def add_compare_command(commands: Any) -> None:
     """Add the ``compare`` sub-command to the sub-parsers ``commands`` of the main parser."""
     listing = "\n".join(f"  {name:<20} {s.help}" for name, s in STAGES.items())
@@ -122,18 +141,20 @@ def add_compare_command(commands: Any) -> None:
         description=f"Run a comparison stage on stored runs.\n\nstages:\n{listing}",
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
+    parser._negative_number_matcher = NEGATIVE_NUMBER  # see NEGATIVE_NUMBER
+    number = finite_float
     parser.add_argument("stage", choices=list(STAGES), metavar="STAGE", help="stage name")
     parser.add_argument("runs", nargs="+", type=Path, metavar="RUN",
                         help="run file(s) (.nc); material-point: a case file (.toml)")
     parser.add_argument("--out", type=Path, default=Path("compare"), help="output folder")
     parser.add_argument("--stem", help="output file name without suffix (default: derived)")
     option = parser.add_argument_group("stage options (each stage takes some)")
-    option.add_argument("--offsets", type=float, nargs="+", help="indentation: x1 offsets [m]")
-    option.add_argument("--depth", type=float, help="depth of the layer x3 [m]")
-    option.add_argument("--x2", type=float, help="x2 of the profile [m]")
-    option.add_argument("--centre", type=float, help="x1 centre of the asymmetry measure [m]")
-    option.add_argument("--tolerance", type=float, help="track: steady band (default 0.02)")
-    option.add_argument("--end-margin", type=float, help="track: end left out [m] (default a)")
+    option.add_argument("--offsets", type=number, nargs="+", help="indentation: x1 offsets [m]")
+    option.add_argument("--depth", type=number, help="depth of the layer x3 [m]")
+    option.add_argument("--x2", type=number, help="x2 of the profile [m]")
+    option.add_argument("--centre", type=number, help="x1 centre of the asymmetry measure [m]")
+    option.add_argument("--tolerance", type=number, help="track: steady band (default 0.02)")
+    option.add_argument("--end-margin", type=number, help="track: end left out [m] (default a)")
     option.add_argument("--component", choices=["11", "22", "33", "12", "13", "23"])
     option.add_argument("--step", type=_step, help="'last', 'max_load' or a step number")
     option.add_argument("--reference", type=Path, help="reference file (CSV or netCDF)")
@@ -145,20 +166,20 @@ def add_compare_command(commands: Any) -> None:
         metavar="DIM=VALUE",
         help="fixed position, e.g. --select x2=0 --select component=11",
     )
-    option.add_argument("--value-scale", type=float, help="reference values -> SI (1e6: MPa)")
-    option.add_argument("--coord-scale", type=float, help="reference coordinates -> m (1e-6: µm)")
+    option.add_argument("--value-scale", type=number, help="reference values -> SI (1e6: MPa)")
+    option.add_argument("--coord-scale", type=number, help="reference coordinates -> m (1e-6: µm)")
     option.add_argument(
-        "--bending-limit", type=float, help="fatigue: fully reversed bending endurance limit [Pa]"
+        "--bending-limit", type=number, help="fatigue: fully reversed bending endurance limit [Pa]"
     )
     option.add_argument(
         "--cycle", help="fatigue: 'auto' (the last complete pass, or the whole history), 'all' "
         "or a step range 'first:last'")
     option.add_argument(
-        "--torsion-limit", type=float, help="fatigue: fully reversed torsion endurance limit [Pa]"
+        "--torsion-limit", type=number, help="fatigue: fully reversed torsion endurance limit [Pa]"
     )
-    option.add_argument("--amplitude", type=float,
+    option.add_argument("--amplitude", type=number,
                         help="material-point: amplitude of the driven strain, or stress [Pa]")
-    option.add_argument("--mean", type=float, help="material-point: mean of the cycles")
+    option.add_argument("--mean", type=number, help="material-point: mean of the cycles")
     option.add_argument("--cycles", type=int, help="material-point: full cycles (default 3)")
     option.add_argument("--increments", type=int,
                         help="material-point: increments per half-cycle (default 40)")

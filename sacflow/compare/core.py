@@ -30,8 +30,8 @@ import xarray as xr
 from pydantic import ValidationError
 
 from sacflow.config.schema import Case
-from sacflow.errors import SacflowError
-from sacflow.storage.run_reader import open_run
+from sacflow.errors import InputError
+from sacflow.storage.run_reader import RunFileError, open_run
 from sacflow.storage.run_variables import COORDINATES, VARIABLES
 
 __all__ = [
@@ -63,7 +63,7 @@ RANGE_SLACK = 1e-9
 COVERED = {"x1": "surface grid", "x2": "surface grid", "x3": "cuboid box"}
 
 
-class CompareError(SacflowError):
+class CompareError(InputError):
     """A comparison cannot be made: wrong file, missing variable or output, bad option."""
 
 
@@ -275,8 +275,8 @@ def load_run(run: RunLike) -> xr.Dataset:
             ds = open_run(path)
         except FileNotFoundError:
             raise CompareError(f"{path}: no such run file") from None
-        except (OSError, ValueError, RuntimeError) as exc:
-            raise CompareError(f"{path}: not a readable netCDF run file ({exc})") from None
+        except RunFileError as exc:  # damaged, or not a run: what it is, what to do
+            raise CompareError(str(exc)) from None
         ds.attrs.setdefault("source", str(path))
     if "case" not in ds.attrs or "step" not in ds.dims:
         raise CompareError(

@@ -32,7 +32,7 @@ from sacflow.compare.core import CompareError, RunLike, build, case_name, case_o
 from sacflow.compare.load_cycle import AUTOMATIC, LoadCycle, load_cycle
 from sacflow.mechanics.fatigue_criteria import EnduranceLimits, fatigue_indices
 from sacflow.solver.state import COMPONENTS
-from sacflow.storage.run_reader import open_run, run_info
+from sacflow.storage.run_reader import RunFileError, not_a_run, open_run, run_info
 
 __all__ = [
     "DEFAULT_LIMITS",
@@ -149,6 +149,8 @@ def _open(run: RunLike) -> tuple[xr.Dataset, bool]:
     info = run_info(path)
     if not info.exists:
         raise CompareError(f"{path}: no such run file")
+    if info.unreadable:
+        raise CompareError(not_a_run(path, info.problem))
     if not info.complete:
         raise CompareError(
             f"{path}: the run is not finished ({info.steps} steps stored); the fatigue stage "
@@ -156,8 +158,8 @@ def _open(run: RunLike) -> tuple[xr.Dataset, bool]:
         )
     try:
         ds = open_run(path, lazy=True)
-    except (OSError, ValueError, RuntimeError) as exc:
-        raise CompareError(f"{path}: not a readable netCDF run file ({exc})") from None
+    except RunFileError as exc:  # damaged, or not a run: what it is, what to do
+        raise CompareError(str(exc)) from None
     ds.attrs.setdefault("source", str(path))
     return ds, True
 

@@ -76,8 +76,14 @@ def summary_numbers(result: xr.Dataset) -> dict[str, tuple[float, str]]:
 
 
 def summary(result: xr.Dataset) -> str:
-    """Return the summary numbers of a result (its 0-d variables) as a short text block."""
+    """Return the summary numbers of a result (its 0-d variables) as a short text block.
+
+    A stage that concludes (attribute ``verdict``: the ``passes`` stage's shakedown or
+    ratcheting) says so on the line after the title.
+    """
     lines = [f"{result.attrs.get('stage', 'compare')}: {result.attrs.get('case', '')}"]
+    if "verdict" in result.attrs:  # the stage's conclusion first (passes: shakedown or not)
+        lines.append(f"  verdict: {result.attrs['verdict']}")
     numbers = summary_numbers(result)
     width = max((len(n) for n in numbers), default=0)
     for name, (value, units) in numbers.items():

@@ -52,7 +52,9 @@ def _open_dataset(source: RunLike) -> tuple[xr.Dataset, str]:
             is_run = "case" in ds.attrs and "step" in ds.dims
             data = None if is_run else ds.load()
     except (OSError, ValueError, RuntimeError) as exc:
-        raise CompareError(f"{path}: not a readable netCDF file ({exc})") from None
+        problem = "its format is not netCDF" if "IO backends" in str(exc) else str(exc)
+        raise CompareError(f"{path}: not a readable netCDF file ({problem}); give a netCDF or "
+                           "CSV reference") from None
     if data is None:  # a run: opened again with its steps
         return load_run(path), str(path)
     return data, str(path)

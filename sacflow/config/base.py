@@ -10,9 +10,11 @@ sequences are tuples so that a case cannot be changed in place. Cross-field chec
 from __future__ import annotations
 
 import math
+import types
+import typing
 from typing import Annotated, Any
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 from pydantic_core import PydanticCustomError
 
 __all__ = [
@@ -22,6 +24,7 @@ __all__ = [
     "MAX_STEPS",
     "MAX_THREADS",
     "NAME_PATTERN",
+    "NON_FINITE_TEXT",
     "CellCount",
     "FiniteFloat",
     "Model",
@@ -33,6 +36,8 @@ __all__ = [
     "StepCount",
     "field_error",
     "finite_json",
+    "not_a_number",
+    "number_kind",
     "strictly_increasing",
     "unit_vector",
 ]
@@ -68,10 +73,70 @@ PoissonRatio = Annotated[float, Field(gt=-1, lt=0.5)]
 NORMALISE_PASSES = 4
 
 
+#: The strings a float field accepts: how the case JSON writes non-finite values, and TOML's.
+NON_FINITE_TEXT = frozenset({"Infinity", "-Infinity", "+Infinity", "NaN", "inf", "-inf", "nan"})
+
+
 class Model(BaseModel):
-    """Base of every sacflow model: immutable, hashable, unknown keys rejected."""
+    """Base of every sacflow model: immutable, hashable, unknown keys rejected.
+
+    Numbers are numbers: a ``true``/``false`` or a quoted ``"16"`` given for a number is an
+    error naming the field (pydantic would read ``true`` as 1.0 and ``"16"`` as 16, and a later
+    check would blame another field).
+    """
 
     model_config = ConfigDict(frozen=True, extra="forbid", ser_json_inf_nan="strings")
+
+    @model_validator(mode="before")
+    @classmethod
+    def _numbers_are_numbers(cls, data: Any) -> Any:
+        if not isinstance(data, dict):
+            return data
+        for name, value in data.items():
+            field = cls.model_fields.get(name)
+            kind = None if field is None else number_kind(field.annotation)
+            if kind is None:
+                continue
+            values = value if isinstance(value, list | tuple) and kind[1] else (value,)
+            for item in values:
+                if not_a_number(item, kind[0]):
+                    raise field_error(name, _number_message(item, kind[0]))
+        return data
+
+
+def number_kind(annotation: Any) -> tuple[type, bool] | None:
+    """``(int or float, is a tuple of them)`` for a numeric field annotation, else None.
+
+    ``float``, ``int``, ``X | None`` of them and homogeneous tuples of them count.
+    """
+    origin = typing.get_origin(annotation)
+    if origin in (typing.Union, types.UnionType):
+        kinds = [number_kind(a) for a in typing.get_args(annotation) if a is not type(None)]
+        return kinds[0] if len(kinds) == 1 else None
+    if origin is tuple:
+        inner = {number_kind(a) for a in typing.get_args(annotation) if a is not Ellipsis}
+        only = next(iter(inner)) if len(inner) == 1 else None
+        return None if only is None else (only[0], True)
+    if annotation is float or annotation is int:
+        return annotation, False
+    return None
+
+
+def _number_message(value: Any, kind: type) -> str:
+    """Say that ``value`` is not a number of type ``kind``, and how to write one."""
+    what = "an integer" if kind is int else "a number"
+    if isinstance(value, bool):
+        return f"expected {what}, got {str(value).lower()}"
+    return f"expected {what}, got the text {value!r} (write numbers without quotes)"
+
+
+def not_a_number(value: Any, kind: type) -> bool:
+    """Tell whether ``value`` must be refused for a field of type ``kind`` (int or float)."""
+    if isinstance(value, bool):
+        return True
+    if isinstance(value, str):
+        return kind is int or value.strip() not in NON_FINITE_TEXT
+    return False
 
 
 def field_error(field: str, message: str) -> PydanticCustomError:

@@ -1,22 +1,42 @@
 """How much memory this process can still use: the one reader of the machine's memory.
 
-Used by the memory estimate of a case (refusing grids the machine cannot hold) and by the kernel
-set-up (choosing how many depth blocks to keep at once). Linux's ``MemAvailable``, else the
-physical pages, never more than what is left below the process's cgroup limit.
+Used by the memory estimate of a case (refusing grids the machine cannot hold), by the kernel
+set-up (choosing how many depth blocks to keep at once) and by campaigns (how many cases a
+machine's workers may run at once). Linux's ``MemAvailable``, else the physical pages, never
+more than what is left below the process's cgroup limit, nor below its own limits
+(``ulimit -v``, ``ulimit -d``): a case the machine could hold but the process may not allocate
+is refused before it starts, not ended by numpy's ``_ArrayMemoryError`` minutes later.
 """
 
 from __future__ import annotations
 
 import os
+import resource
 from pathlib import Path
 
-__all__ = ["CGROUP_LIMIT", "CGROUP_USAGE", "MEMINFO", "available_memory"]
+__all__ = [
+    "CGROUP_LIMIT",
+    "CGROUP_USAGE",
+    "MEMINFO",
+    "PROCESS_LIMITS",
+    "PROC_STATUS",
+    "available_memory",
+    "process_limit_left",
+]
 
 #: Where Linux says how much memory can be given to a process without swapping.
 MEMINFO = Path("/proc/meminfo")
 #: The memory limit and use of this process's cgroup (v2), when it has one.
 CGROUP_LIMIT = Path("/sys/fs/cgroup/memory.max")
 CGROUP_USAGE = Path("/sys/fs/cgroup/memory.current")
+#: This process's memory use as the kernel counts it against its limits (``VmSize``, ``VmData``).
+PROC_STATUS = Path("/proc/self/status")
+#: The process's own limits and the use each is checked against (proc(5), getrlimit(2)):
+#: ``RLIMIT_AS`` (``ulimit -v``) bounds the whole address space, ``VmSize`` -- virtual, not
+#: resident: the kernel refuses an mmap/brk that would take ``VmSize`` above it, whatever is
+#: resident, so ``getrusage``'s peak resident size is not the use to subtract; ``RLIMIT_DATA``
+#: (``ulimit -d``) bounds the data segment and private writable mappings, ``VmData``.
+PROCESS_LIMITS = ((resource.RLIMIT_AS, "VmSize"), (resource.RLIMIT_DATA, "VmData"))
 
 
 def _read_int(path: Path) -> int | None:
@@ -34,7 +54,7 @@ def available_memory() -> int:
     Linux's ``MemAvailable`` (``/proc/meminfo``: free memory plus what the page cache and
     reclaimable slabs can give back), else the available physical pages (``os.sysconf``);
     never more than what is left below the limit of this process's cgroup (a container's or a
-    batch job's memory limit).
+    batch job's memory limit), nor below the process's own limits (:func:`process_limit_left`).
     """
     available = _meminfo_available()
     if available is None:
@@ -42,7 +62,40 @@ def available_memory() -> int:
     limit, usage = _read_int(CGROUP_LIMIT), _read_int(CGROUP_USAGE)
     if limit is not None:
         available = min(available, max(limit - (usage or 0), 0))
-    return available
+    left = process_limit_left()
+    return available if left is None else min(available, left)
+
+
+def process_limit_left() -> int | None:
+    """Bytes this process may still allocate under its own limits, or None when it has none.
+
+    For each of :data:`PROCESS_LIMITS` with a (soft) limit: the limit minus the process's
+    current use of it (``VmSize`` for ``RLIMIT_AS``, ``VmData`` for ``RLIMIT_DATA``, from
+    :data:`PROC_STATUS`); the smallest of them.
+    """
+    left = None
+    status = _proc_status()
+    for kind, key in PROCESS_LIMITS:
+        soft = resource.getrlimit(kind)[0]
+        if soft == resource.RLIM_INFINITY:
+            continue
+        room = max(soft - status.get(key, 0), 0)
+        left = room if left is None else min(left, room)
+    return left
+
+
+def _proc_status() -> dict[str, int]:
+    """Read the ``Vm*`` sizes of :data:`PROC_STATUS` [bytes] (empty where there is none)."""
+    sizes = {}
+    try:
+        with open(PROC_STATUS) as fh:
+            for line in fh:
+                key, _, value = line.partition(":")
+                if key.startswith("Vm") and value.strip().endswith("kB"):
+                    sizes[key] = int(value.split()[0]) * 1024
+    except (OSError, ValueError):
+        pass
+    return sizes
 
 
 def _meminfo_available() -> int | None:

@@ -56,6 +56,11 @@ def load_case(path: str | Path, overrides: Sequence[str] = ()) -> Case:
     """
     path = Path(path)
     data = read_file(path)
+    if "sweep" in data and "base" in data:
+        raise ConfigError(
+            f"{path}: a campaign file ([base] and [[sweep]]), not a case file: run it with "
+            f"`sacflow campaign {path} --out DIR` (sacflow.campaign.run_campaign in Python)"
+        )
     try:
         data = apply_overrides(data, overrides)
     except ConfigError as exc:

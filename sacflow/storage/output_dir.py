@@ -18,15 +18,23 @@ from pathlib import Path
 
 from sacflow.errors import OutputPathError
 
-__all__ = ["check_output_dir", "prepare_output_dir"]
+__all__ = ["COMMAND_LINE", "PYTHON", "check_output_dir", "prepare_output_dir"]
 
-#: The fix printed with every problem.
-_FIX = "give a folder path you can write to (e.g. --out runs/)"
+#: The fix printed with every problem (``{example}``: how the folder is given).
+_FIX = "give a folder path you can write to (e.g. {example})"
+#: How a folder is given on the command line, and to the Python functions (their parameter).
+COMMAND_LINE, PYTHON = "--out", "out_dir"
+
+
+def _fix(option: str) -> str:
+    """Say the fix in the words of the option (``--out runs/``) or parameter (``out_dir=``)."""
+    example = f"{option} runs/" if option.startswith("-") else f'{option}="runs"'
+    return _FIX.format(example=example)
 #: Prefix of the folder made (and removed at once) to see that folders can be made.
 _PROBE_PREFIX = ".sacflow-out-check-"
 
 
-def check_output_dir(path: str | Path, option: str = "--out") -> Path:
+def check_output_dir(path: str | Path, option: str = PYTHON) -> Path:
     """Check, without leaving anything behind, that ``path`` can be the output folder.
 
     ``path`` must be a folder or not exist; its nearest existing ancestor must be a folder in
@@ -38,7 +46,8 @@ def check_output_dir(path: str | Path, option: str = "--out") -> Path:
     path : str or Path
         The folder (existing or not).
     option : str
-        How the user gave it, for the message (``--out``, or a function argument name).
+        How the user gave it, for the message: a function's parameter (default ``out_dir``:
+        :func:`sacflow.run`, :func:`sacflow.campaign.run_campaign`), or ``--out``.
 
     Returns
     -------
@@ -55,34 +64,35 @@ def check_output_dir(path: str | Path, option: str = "--out") -> Path:
     where = f"{option} {str(path)!r}"
     ancestor = None
     try:
-        ancestor = _existing_ancestor(folder, where)
+        ancestor = _existing_ancestor(folder, where, option)
         os.rmdir(tempfile.mkdtemp(prefix=_PROBE_PREFIX, dir=ancestor))
     except OutputPathError:
         raise
     except (OSError, ValueError) as exc:  # ValueError: a NUL byte in the path
         verb = "write in this folder" if ancestor == folder else "create this folder"
-        raise OutputPathError(f"{where}: cannot {verb} ({_reason(exc)}); {_FIX}") from None
+        raise OutputPathError(f"{where}: cannot {verb} ({_reason(exc)}); {_fix(option)}") from None
     return folder
 
 
-def prepare_output_dir(path: str | Path, option: str = "--out") -> Path:
+def prepare_output_dir(path: str | Path, option: str = PYTHON) -> Path:
     """:func:`check_output_dir`, then create the folder (and its parents); return it."""
     folder = check_output_dir(path, option)
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as exc:  # changed since the check
         raise OutputPathError(
-            f"{option} {str(path)!r}: cannot create this folder ({_reason(exc)}); {_FIX}"
+            f"{option} {str(path)!r}: cannot create this folder ({_reason(exc)}); {_fix(option)}"
         ) from None
     return folder
 
 
-def _existing_ancestor(folder: Path, where: str) -> Path:
+def _existing_ancestor(folder: Path, where: str, option: str) -> Path:
     """``folder`` if it exists, else its nearest existing ancestor; raise if that is a file."""
     if folder.exists():
         if not folder.is_dir():
             raise OutputPathError(
-                f"{where}: is an existing file, not a folder; {_FIX}, or move the file away"
+                f"{where}: is an existing file, not a folder; {_fix(option)}, or move the file "
+                "away"
             )
         return folder
     for parent in folder.parents:
@@ -90,7 +100,7 @@ def _existing_ancestor(folder: Path, where: str) -> Path:
             if not parent.is_dir():
                 raise OutputPathError(
                     f"{where}: {str(parent)!r} is a file, so no folder can be created under "
-                    f"it; {_FIX}"
+                    f"it; {_fix(option)}"
                 )
             return parent
     return Path.cwd()  # pragma: no cover - a relative path's parents end at "."

@@ -22,6 +22,7 @@ import netCDF4
 import numpy as np
 
 from sacflow.config.schema import Case
+from sacflow.errors import InputError
 from sacflow.storage.run_parts import (
     part_layout,
     parts_dir,
@@ -36,13 +37,69 @@ if TYPE_CHECKING:  # xarray is imported where runs are read: writers (campaign w
     import xarray as xr
 
 __all__ = [
+    "RunFileError",
     "RunInfo",
+    "RunNotFoundError",
     "completed_steps",
     "is_complete",
+    "not_a_run",
     "open_run",
     "read_scalars",
     "run_info",
 ]
+
+
+class RunFileError(InputError):
+    """A file given as a run is damaged, truncated, or not a sacflow run (the message says)."""
+
+
+class RunNotFoundError(RunFileError, FileNotFoundError):
+    """No run at the path: no file and no completed steps."""
+
+
+#: First bytes of an HDF5 file (netCDF-4), and of a classic netCDF file.
+_HDF5_SIGNATURE, _CDF_SIGNATURE = b"\x89HDF\r\n\x1a\n", b"CDF"
+
+
+def not_a_run(path: Path, problem: str) -> str:
+    """Say what the file ``path`` is instead of a run, and what to do (for :class:`RunFileError`).
+
+    ``problem`` is the reader's own complaint, kept at the end of the message.
+    """
+    try:
+        with open(path, "rb") as f:
+            head = f.read(64)
+    except OSError as exc:  # a folder, no permission
+        return f"{path}: cannot be read as a run file ({exc.strerror or exc})"
+    text = head.lstrip()
+    if not head:
+        what = "an empty file, not a run file"
+    elif (head.startswith(_HDF5_SIGNATURE) or head.startswith(_CDF_SIGNATURE)) and _opens(path):
+        what = (f"a netCDF file, but not a sacflow run ({problem or 'no step dimension'}): a "
+                "comparison's output, or another program's? Give a <name>.nc written by "
+                "`sacflow run`")
+        problem = ""
+    elif head.startswith(_HDF5_SIGNATURE) or head.startswith(_CDF_SIGNATURE):
+        what = ("a damaged or truncated netCDF file (written while the disk filled up, or "
+                "copied in part?): run its case again to rewrite it")
+    elif path.name.endswith(".manifest.json") or text.startswith(b"{"):
+        what = ("a JSON file (a campaign manifest?), not a run file: open a campaign with "
+                "sacflow.open_campaign, or give one of its <case>.nc files")
+    elif path.suffix == ".toml" or b"=" in head:
+        what = ("a text file (a case or campaign file?), not a run file: run it with "
+                "`sacflow run` (`sacflow campaign`) and give the <name>.nc it writes")
+    else:
+        what = "not a netCDF file, so not a sacflow run file"
+    return f"{path}: {what} ({problem})" if problem else f"{path}: {what}"
+
+
+def _opens(path: Path) -> bool:
+    """Tell whether netCDF opens ``path`` (its header is sound)."""
+    try:
+        with netCDF4.Dataset(path):
+            return True
+    except (OSError, RuntimeError):
+        return False
 
 
 @dataclass(frozen=True)
@@ -125,7 +182,7 @@ class RunInfo:
     def describe(self) -> str:
         """Say in a few words what is stored, for messages."""
         if self.unreadable:
-            return f"a file that is not a readable run ({self.problem})"
+            return not_a_run(self.path, self.problem).removeprefix(f"{self.path}: ")
         if self.complete:
             return f"a finished run of case {self.case_id} ({self.steps} steps)"
         if self.parts:
@@ -137,7 +194,7 @@ class RunInfo:
     def report(self) -> str:
         """Write a few lines for ``sacflow info``: what is stored, of which case, and its state."""
         lines = [f"{self.path}: {self.describe()}"]
-        if self.attrs:
+        if self.attrs and not self.unreadable:
             stored = self.case
             lines.append(f"  case: {stored.name if stored else '?'} (id {self.case_id}"
                          + (f", asked as {self.attrs['requested_case_id']}"
@@ -182,8 +239,12 @@ def run_info(path: str | Path) -> RunInfo:
                 attrs = {k: nc.getncattr(k) for k in nc.ncattrs()}
                 steps = len(nc.dimensions["step"])
                 variables = tuple(name for name in VARIABLES if name in nc.variables)
-        except (OSError, KeyError, RuntimeError) as exc:
+        except KeyError as exc:  # a netCDF file without a step dimension
+            return RunInfo(path, problem=f"no {exc} dimension", unreadable=True)
+        except (OSError, RuntimeError) as exc:
             return RunInfo(path, problem=str(exc) or type(exc).__name__, unreadable=True)
+        if "case_id" not in attrs:  # a netCDF file of steps, but not a run (a compare output)
+            return RunInfo(path, attrs=attrs, problem="no case_id attribute", unreadable=True)
         return RunInfo(path, complete=bool(attrs.get("complete")), attrs=attrs, steps=steps,
                        variables=variables)
     parts, damaged, problem = sound_parts(parts_dir(path))
@@ -212,15 +273,30 @@ def open_run(path: str | Path, lazy: bool = False) -> xr.Dataset:
         Global attribute ``complete`` is 1 for a finished run, 0 for the steps of an
         interrupted one (its sound parts). Volume fields are NaN on steps where they were not
         stored.
+
+    Raises
+    ------
+    RunNotFoundError
+        No file and no completed steps at ``path`` (also a ``FileNotFoundError``).
+    RunFileError
+        The file is damaged or truncated, or not a sacflow run (a manifest, a case file, any
+        other file): the message names the file, what it is, and what to do.
     """
     import xarray as xr
 
     path = Path(path)
     if path.exists():
-        return xr.open_dataset(path) if lazy else _load(path)
+        info = run_info(path)
+        if info.unreadable:
+            raise RunFileError(not_a_run(path, info.problem))
+        try:
+            return xr.open_dataset(path) if lazy else _load(path)
+        except (OSError, ValueError, RuntimeError) as exc:
+            raise RunFileError(f"{path}: a damaged run file: its arrays cannot be read "
+                               f"({exc}); run its case again to rewrite it") from None
     parts = list(run_info(path).parts)
     if not parts:
-        raise FileNotFoundError(f"no run at {path} (no file and no completed steps)")
+        raise RunNotFoundError(f"no run at {path} (no file and no completed steps)")
     coords, names = part_layout(parts[0])
     with tempfile.TemporaryDirectory() as folder:
         target = Path(folder) / path.name

@@ -16,12 +16,19 @@ Run identity: a stored run, complete or not, is only replaced when the writer is
 (``overwrite=True``; ``sacflow run --overwrite``); otherwise :class:`RunExistsError` names the
 file, both case ids and the fields that differ (:func:`replace_message`). Damaged parts, and
 those after them, are always dropped.
+
+One process per run file: a writer holds the run's lock (:mod:`sacflow.storage.run_lock`) from
+its creation to :meth:`RunWriter.close` or :meth:`RunWriter.abort`; a second writer of the same
+file raises :class:`~sacflow.storage.run_lock.RunBusyError` naming the process, host and start
+time of the first, and so does a writer whose ``info`` is out of date (another process wrote
+the file since it was taken).
 """
 
 from __future__ import annotations
 
 import json
 import shutil
+import weakref
 from collections.abc import Iterable
 from datetime import UTC, datetime
 from importlib import metadata
@@ -35,6 +42,7 @@ from sacflow.config.schema import Case, identity_differences
 from sacflow.errors import SacflowError
 from sacflow.solver.state import GridCoords, State
 from sacflow.storage.run_layout import create_run_dataset, write_step, write_through
+from sacflow.storage.run_lock import RunBusyError, RunLock
 from sacflow.storage.run_parts import (
     UNIFORM_ATTR,
     AtomicFile,
@@ -56,8 +64,9 @@ from sacflow.storage.run_variables import (
     dimension_sizes,
     selected_fields,
 )
+from sacflow.storage.write_failure import reporting
 
-__all__ = ["RunExistsError", "RunWriter", "replace_message"]
+__all__ = ["RunBusyError", "RunExistsError", "RunWriter", "replace_message"]
 
 #: At most this many differing fields are listed in :func:`replace_message`.
 _MAX_DIFFERENCES = 12
@@ -126,8 +135,20 @@ class RunWriter:
         # restart state, stay float64: an interrupted run resumes exactly).
         self.volume_dtype = "f4" if case.output.volume_precision == "float32" else "f8"
         self._closed = False
-        info = info if info is not None else run_info(self.path)
-        kept = _prepare(info, case, keep_steps, overwrite)
+        self.lock = RunLock(self.path)  # one process per run file, or RunBusyError
+        self.lock.acquire()
+        weakref.finalize(self, self.lock.release)  # a writer dropped unclosed lets it go too
+        try:
+            if info is not None and not _unchanged(info):
+                raise RunBusyError(
+                    f"{self.path} was written by another process since this run looked at it; "
+                    "nothing was changed: run again to go on from what it stored"
+                )
+            info = info if info is not None else run_info(self.path)
+            kept = _prepare(info, case, keep_steps, overwrite)
+        except BaseException:
+            self.lock.release()
+            raise
         self.attrs = run_attributes(kept[0]) if kept else _global_attrs(case)
         if requested_case_id is not None and requested_case_id != case.case_id:
             self.attrs["requested_case_id"] = requested_case_id
@@ -153,14 +174,17 @@ class RunWriter:
         # Parts are temporary, read once at consolidation: uncompressed (compressing each step
         # twice, in its part and in the consolidated file, would be wasted work).
         try:
-            with write_through(), create_run_dataset(tmp, self.coords, self.names, attrs, 0) as nc:
-                write_step(nc, 0, state.step, values)
-                if state.restart:
-                    write_restart(nc, state, {**values, **uniform})
+            with reporting(f"step {self.next_step}", self.path, self.next_step):
+                with write_through(), create_run_dataset(tmp, self.coords, self.names, attrs,
+                                                         0) as nc:
+                    write_step(nc, 0, state.step, values)
+                    if state.restart:
+                        write_restart(nc, state, {**values, **uniform})
+                part = publish_part(tmp, self.next_step)
         except BaseException:
             tmp.unlink(missing_ok=True)
             raise
-        self._stored.append(publish_part(tmp, self.next_step))
+        self._stored.append(part)
         self.next_step += 1
 
     def close(self) -> None:
@@ -169,14 +193,19 @@ class RunWriter:
             return
         self._closed = True
         attrs = {**self.attrs, "complete": 1}
-        with AtomicFile(self.path) as tmp:
-            write_consolidated(tmp, self._stored, self.coords, self.names, attrs,
-                               self.compression, self.volume_dtype)
-        shutil.rmtree(self.parts, ignore_errors=True)
+        try:
+            with reporting("the consolidated file", self.path, self.next_step), \
+                    AtomicFile(self.path) as tmp:
+                write_consolidated(tmp, self._stored, self.coords, self.names, attrs,
+                                   self.compression, self.volume_dtype)
+            shutil.rmtree(self.parts, ignore_errors=True)
+        finally:
+            self.lock.release()
 
     def abort(self) -> None:
         """Stop without consolidating: the stored steps stay as parts (resume later)."""
         self._closed = True
+        self.lock.release()
 
     def __enter__(self) -> RunWriter:
         """Return the writer itself."""
@@ -193,6 +222,16 @@ class RunWriter:
             self.close()
         else:
             self.abort()
+
+
+def _unchanged(info: RunInfo) -> bool:
+    """Nothing was written at ``info.path`` since ``info`` was taken (the file, the part names)."""
+    file_there = info.path.exists() or info.path.is_symlink()
+    if info.complete or info.unreadable or file_there:
+        return file_there == (info.complete or info.unreadable)
+    folder = parts_dir(info.path)
+    names = {p.name for p in folder.glob("step-*.nc")} if folder.is_dir() else set()
+    return names == {p.name for p in (*info.parts, *info.damaged)}
 
 
 def _prepare(info: RunInfo, case: Case, keep_steps: int, overwrite: bool) -> list[Path]:
@@ -230,8 +269,8 @@ def replace_message(info: RunInfo, case: Case) -> str:
             if more:
                 lines.append(f"  ... and {more} more")
     lines.append(
-        "Nothing was changed. To replace it, run again with --overwrite; to keep it, use "
-        "another --out folder or another case name."
+        "Nothing was changed. To replace it, run again with --overwrite (overwrite=True from "
+        "Python); to keep it, use another --out folder (out_dir) or another case name."
     )
     return "\n".join(lines)
 
