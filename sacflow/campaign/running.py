@@ -16,7 +16,7 @@ import time
 import traceback
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from tqdm.auto import tqdm
 
@@ -27,13 +27,17 @@ from sacflow.config.schema import Campaign, Case, Elastic
 from sacflow.errors import ConfigError, SacflowError
 from sacflow.storage.output_dir import prepare_output_dir
 
+if TYPE_CHECKING:
+    from sacflow.runner import StateSource
+
 __all__ = ["WORKER_DIED", "SimulationFactory", "run_campaign", "run_one"]
 
 WORKER_DIED = (
     "the worker process died running this case (out of memory, or a crash in compiled code); "
     "see the dask worker logs"
 )
-SimulationFactory = Callable[[Case], Any]
+#: ``factory(case) -> simulation`` (:class:`sacflow.runner.StateSource`).
+SimulationFactory = Callable[[Case], "StateSource"]
 
 
 def run_campaign(
