@@ -69,12 +69,12 @@ def test_contact_stress_operator_from_the_cache_equals_the_computed_one(cache):
     listed = {e.kind: e.parameters["shape"] for e in entries}  # what `sacflow cache` shows
     assert listed["contact_stress"] == [*first.body_shape, first.nz] == listed["eigenstrain"]
     second = simulation_for(load_case(config, small))
-    spectra = second.pressure_stress_op.spectra
+    spectra = second.operators.pressure_stress_op.spectra
     assert isinstance(spectra, np.memmap) or isinstance(spectra.base, np.memmap)
-    np.testing.assert_array_equal(spectra, first.pressure_stress_op.spectra)
+    np.testing.assert_array_equal(spectra, first.operators.pressure_stress_op.spectra)
     pressure = np.random.default_rng(2).random(first.body_shape)
-    np.testing.assert_array_equal(second._pressure_stress_op_apply(pressure),
-                                  first._pressure_stress_op_apply(pressure))
+    np.testing.assert_array_equal(second.operators.body_pressure_stress(pressure),
+                                  first.operators.body_pressure_stress(pressure))
     simulation_for(load_case(config, [*small, "friction.coefficient=0.2"]))
     kinds = sorted(e.kind for e in kernel_cache.list_entries(cache))
     assert kinds == ["contact_stress", "contact_stress", "eigenstrain"]
