@@ -12,9 +12,9 @@ Simulation` of a case, :func:`estimate_case_memory` the memory estimate of its g
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
-from sacflow.config.schema import Case, Elastic, Hold, Roll
+from sacflow.config.schema import Case, Elastic, Hold, Load, Roll, Unload
 from sacflow.errors import SacflowError
 from sacflow.mechanics.initial_state import StoredState, initial_eqps, initial_stress
 from sacflow.mechanics.kinematic import kinematic_from_schema
@@ -159,7 +159,8 @@ def _anderson_depth(case: Case) -> int:
     return opts.anderson_depth if opts.acceleration == "anderson" else 0
 
 
-def load_path_segments(load_path: Sequence[Any]) -> tuple[layout.Segment, ...]:
+def load_path_segments(load_path: Sequence[Load | Unload | Hold | Roll]
+                       ) -> tuple[layout.Segment, ...]:
     """Return the schema's load-path segments as the solver's (:mod:`sacflow.solver.layout`)."""
     segments: list[layout.Segment] = []
     for seg in load_path:
@@ -169,8 +170,8 @@ def load_path_segments(load_path: Sequence[Any]) -> tuple[layout.Segment, ...]:
                                         seg.between, seg.lift_increments))
         elif isinstance(seg, Hold):
             segments.append(layout.Hold(seg.increments))
-        else:  # load, unload
-            at = getattr(seg, "at", None)
+        else:
+            at = seg.at if isinstance(seg, Load) else None
             segments.append(layout.Ramp(seg.to, seg.increments,
                                         None if at is None else (at[0], at[1])))
     return tuple(segments)
