@@ -38,8 +38,10 @@ __all__ = ["MAX_CUTBACKS", "Simulation"]
 
 log = logging.getLogger(__name__)
 
-#: Factor by which a too shallow cuboid box is deepened (see Simulation._check_box).
+#: Factor by which a too shallow cuboid box is deepened (see Simulation._check_box), and the
+#: fewest layers it adds.
 GROWTH = 1.5
+GROWTH_MIN_LAYERS = 2
 #: Times an increment that does not converge is cut in two and solved again (Simulation.run):
 #: at most 2**MAX_CUTBACKS sub-increments per stored step.
 MAX_CUTBACKS = 3
@@ -317,7 +319,7 @@ class Simulation:
         # flowed in this run (the initial hardening aside)
         plastic = body.equivalent_plastic_strain > body.initial_equivalent_plastic_strain
         if plastic[..., -1].any():
-            new_nz = max(self.nz + 2, math.ceil(GROWTH * self.nz))
+            new_nz = max(self.nz + GROWTH_MIN_LAYERS, math.ceil(GROWTH * self.nz))
             raise BoxTooShallowError(step, self.nz * self.dz, self.nz, new_nz * self.dz, new_nz)
         if plastic[[0, -1]].any() or plastic[:, [0, -1]].any():
             warnings.warn(
