@@ -19,12 +19,12 @@ from _common import ROOT, emit, hertz_step_case, isolated
 def one_step(n: int, scheme: str = "coupled") -> dict:
     import numpy as np
 
-    from sacflow.solver.simulation import Simulation
+    from sacflow.config.solver_inputs import simulation_for
     from sacflow.storage.case_file import case_from_dict
 
     case = case_from_dict(hertz_step_case(n, scheme))
     t0 = time.perf_counter()
-    sim = Simulation(case)
+    sim = simulation_for(case)
     setup = time.perf_counter() - t0
     t0 = time.perf_counter()
     state = next(iter(sim.run()))
@@ -32,13 +32,13 @@ def one_step(n: int, scheme: str = "coupled") -> dict:
     return {
         "case": f"one load step, p0/sigma_Y = 2, box {n}x{n}x{n // 2}",
         "scheme": scheme,
-        "cuboids": int(np.prod(sim.eqps.shape)),
+        "cuboids": int(np.prod(sim.equivalent_plastic_strain.shape)),
         "setup_s": round(setup, 3),
         "step_s": round(wall, 3),
         "residual_stress_applications": state.plasticity_iterations,
         "contact_iterations": state.contact_iterations,
-        "plastic_cells": int((sim.eqps > 0).sum()),
-        "max_eqps": float(sim.eqps.max()),
+        "plastic_cells": int((sim.equivalent_plastic_strain > 0).sum()),
+        "max_eqps": float(sim.equivalent_plastic_strain.max()),
         "box_depth_over_a": float(sim.dz * sim.nz / case.hertz().a),
     }
 
@@ -46,25 +46,25 @@ def one_step(n: int, scheme: str = "coupled") -> dict:
 def full_case(path: str) -> dict:
     import numpy as np
 
-    from sacflow.solver.simulation import Simulation
+    from sacflow.config.solver_inputs import simulation_for
     from sacflow.storage.case_file import load_case
 
     case = load_case(path)
     t0 = time.perf_counter()
-    sim = Simulation(case)
+    sim = simulation_for(case)
     setup = time.perf_counter() - t0
     t0 = time.perf_counter()
     iterations = [(s.plasticity_iterations, s.contact_iterations) for s in sim.run()]
     wall = time.perf_counter() - t0
     return {
         "case": case.name,
-        "cuboids": int(np.prod(sim.eqps.shape)),
+        "cuboids": int(np.prod(sim.equivalent_plastic_strain.shape)),
         "steps": len(iterations),
         "setup_s": round(setup, 3),
         "run_s": round(wall, 3),
         "residual_stress_applications_per_step": [i for i, _ in iterations],
         "contact_iterations_per_step": [c for _, c in iterations],
-        "max_eqps": float(sim.eqps.max()),
+        "max_eqps": float(sim.equivalent_plastic_strain.max()),
     }
 
 

@@ -22,7 +22,7 @@ from _common import ROOT, emit, isolated
 
 
 def measure(passes: int, kinematic: tuple[float, float] | None) -> dict:
-    from sacflow.solver.simulation import Simulation
+    from sacflow.config.solver_inputs import simulation_for
     from sacflow.storage.case_file import load_case
 
     overrides = [f"load_path.1.passes={passes}", "output.volume_every=100000"]
@@ -31,7 +31,7 @@ def measure(passes: int, kinematic: tuple[float, float] | None) -> dict:
                       f"body.hardening.kinematic.recall={kinematic[1]}"]
     case = load_case(ROOT / "configs/rolling-smooth.toml", overrides)
     t0 = time.perf_counter()
-    sim = Simulation(case)
+    sim = simulation_for(case)
     setup = time.perf_counter() - t0
     wall: dict[int, float] = defaultdict(float)
     steps: dict[int, int] = defaultdict(int)
@@ -45,7 +45,7 @@ def measure(passes: int, kinematic: tuple[float, float] | None) -> dict:
         steps[state.pass_index] += 1
         contact[state.pass_index] += state.contact_iterations
         plastic[state.pass_index] += state.plasticity_iterations
-        eqps[state.pass_index] = float(sim.eqps.max())
+        eqps[state.pass_index] = float(sim.equivalent_plastic_strain.max())
         t0 = time.perf_counter()
     rows = [{"pass": p, "wall_s": round(wall[p], 3), "steps": steps[p],
              "contact_iterations": contact[p], "plasticity_sweeps": plastic[p],
@@ -54,7 +54,7 @@ def measure(passes: int, kinematic: tuple[float, float] | None) -> dict:
     return {
         "hardening": "swift" if kinematic is None else
         f"swift + armstrong-frederick C={kinematic[0]:g} Pa, gamma={kinematic[1]:g}",
-        "cuboid_box": "x".join(str(v) for v in sim.eqps.shape),
+        "cuboid_box": "x".join(str(v) for v in sim.equivalent_plastic_strain.shape),
         "setup_s": round(setup, 3),
         "passes": rows,
         "later_pass_time_over_first": [round(r["wall_s"] / first, 3) for r in rows[1:]],

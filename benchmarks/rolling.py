@@ -19,7 +19,7 @@ from _common import ROOT, emit, isolated
 def measure(factor: int) -> dict:
     import numpy as np
 
-    from sacflow.solver.simulation import Simulation
+    from sacflow.config.solver_inputs import simulation_for
     from sacflow.storage.case_file import load_case
 
     overrides = []
@@ -28,7 +28,7 @@ def measure(factor: int) -> dict:
                      f"grid.nz={11 * factor}", f"load_path.1.steps={170 * factor}"]
     case = load_case(ROOT / "configs/rolling-smooth.toml", overrides)
     t0 = time.perf_counter()
-    sim = Simulation(case)
+    sim = simulation_for(case)
     setup = time.perf_counter() - t0
     t0 = time.perf_counter()
     per_step = []
@@ -39,7 +39,7 @@ def measure(factor: int) -> dict:
     return {
         "resolution": f"x{factor}",
         "surface_cells": f"{case.grid.nx}x{case.grid.ny}",
-        "cuboid_box": "x".join(str(v) for v in sim.eqps.shape),
+        "cuboid_box": "x".join(str(v) for v in sim.equivalent_plastic_strain.shape),
         "steps": len(per_step),
         "setup_s": round(setup, 3),
         "run_s": round(wall, 3),
@@ -47,7 +47,7 @@ def measure(factor: int) -> dict:
         "residual_stress_applications_per_step_mean": float(apps.mean()),
         "residual_stress_applications_per_step_max": int(apps.max()),
         "contact_iterations_per_step_mean": float(np.mean([c for _, c in per_step])),
-        "max_eqps": float(sim.eqps.max()),
+        "max_eqps": float(sim.equivalent_plastic_strain.max()),
         "max_residual_displacement_m": float(sim.residual_displacement.max()),
     }
 

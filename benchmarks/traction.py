@@ -23,12 +23,12 @@ CASES = ("rolling-smooth", "rolling-smooth-traction")
 
 
 def run(name: str) -> dict:
-    from sacflow.solver.simulation import Simulation
+    from sacflow.config.solver_inputs import simulation_for
     from sacflow.storage.case_file import load_case
 
     case = load_case(ROOT / "configs" / f"{name}.toml")
     t0 = time.perf_counter()
-    sim = Simulation(case)
+    sim = simulation_for(case)
     setup = time.perf_counter() - t0
     contact = plastic = 0
     for state in sim.run():

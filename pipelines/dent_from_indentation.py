@@ -31,9 +31,9 @@ from matplotlib.figure import Figure
 from sacflow.compare.fatigue_index import fatigue
 from sacflow.compare.output import write
 from sacflow.config.schema import Case
+from sacflow.config.solver_inputs import simulation_for
 from sacflow.errors import SacflowError
 from sacflow.runner import run_case
-from sacflow.solver.simulation import Simulation
 from sacflow.storage.case_file import load_case
 from sacflow.storage.initial_state_file import read_initial_state
 
@@ -93,7 +93,7 @@ def write_surface(chained: Case, target: Path) -> Path:
     geometric twin reads the same shape (height = −displacement, positive outward), so both
     start on one geometry and differ only by the indentation's plastic state.
     """
-    sim = Simulation(chained, initial=read_initial_state(chained))
+    sim = simulation_for(chained, initial=read_initial_state(chained))
     x1, x2 = np.meshgrid(sim.coords.x1, sim.coords.x2, indexing="ij")
     lines = [f"# dent of {Path(chained.initial_state.run).name} on the body grid of "  # type: ignore[union-attr]
              f"{chained.name}: height = -residual displacement, m",

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sacflow.solver.simulation import Simulation
+from sacflow.config.solver_inputs import simulation_for
 from sacflow.storage.case_file import load_case
 
 CASE = Path(__file__).resolve().parents[1] / "configs" / "sliding-hertz.toml"
@@ -48,7 +48,7 @@ def report(mu: float, cells: int, layers: int) -> dict[str, float]:
     case = load_case(CASE, [f"friction.coefficient={mu}", f"grid.nx={cells}",
                             f"grid.ny={cells}", f"grid.nz={layers}",
                             f"grid.half_width={HALF_WIDTH}", f"grid.depth={DEPTH * a!r}"])
-    sim = Simulation(case)
+    sim = simulation_for(case)
     state = list(sim.run())[-1]
     p0 = sim.hertz.p0
     vm = state.volume["von_mises"] / p0

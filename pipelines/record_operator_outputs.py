@@ -29,8 +29,8 @@ from pathlib import Path
 
 import numpy as np
 
+from sacflow.config.solver_inputs import simulation_for
 from sacflow.kernels.eigenstrain import HalfSpaceEigenstrain
-from sacflow.solver.simulation import Simulation
 from sacflow.storage.case_file import case_from_dict
 
 OUT = Path(__file__).resolve().parents[1] / "data" / "operator_outputs.npz"
@@ -67,7 +67,7 @@ def main() -> None:
         arrays[f"{name}_eps"] = eps
         arrays[f"{name}_stress"] = stress
         arrays[f"{name}_displacement"] = displacement
-    sim = Simulation(case_from_dict(STEP_CASE))
+    sim = simulation_for(case_from_dict(STEP_CASE))
     state = next(iter(sim.run()))
     for name in ("plastic_strain", "residual_stress", "stress"):
         arrays[f"step_{name}"] = np.asarray(state.volume[name])

@@ -201,12 +201,12 @@ def _campaign(args: argparse.Namespace) -> int:
 
 
 def _validate(args: argparse.Namespace) -> int:
-    from sacflow.solver.memory_estimate import check_memory
+    from sacflow.config.solver_inputs import check_case_memory
 
     status = 0
     for case in _load_all(args):
         try:
-            memory = check_memory(case)  # a grid too large for this machine is refused here
+            memory = check_case_memory(case)  # a grid too large for this machine is refused here
         except SacflowError as exc:
             _error(f"{case.name}: {exc}")
             status = EXIT_RUN_FAILED

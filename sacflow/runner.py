@@ -1,13 +1,13 @@
 """Run one case: build the simulation, stream its states into the run file, report.
 
-The simulation contract (``sacflow.solver.simulation.Simulation``): ``sim = Simulation(case)``;
-``sim.coords`` is a :class:`~sacflow.solver.state.GridCoords`; ``sim.total_steps`` an int;
-``sim.run()``
-a generator of :class:`~sacflow.solver.state.State`, raising a
-:class:`~sacflow.errors.SacflowError` on
-failure. A simulation that can go on from a stored state also has ``restore(step, arrays,
-first_contact_offset)`` and ``run(start=step + 1)``; its states carry that state
-(``State.restart``).
+The simulation contract (:class:`StateSource`; the solver's is
+:class:`sacflow.solver.simulation.Simulation`, made by
+:func:`sacflow.config.solver_inputs.simulation_for`): ``sim = factory(case)``; ``sim.coords``
+is a :class:`~sacflow.solver.state.GridCoords`; ``sim.total_steps`` an int; ``sim.run()`` a
+generator of :class:`~sacflow.solver.state.State`, raising a
+:class:`~sacflow.errors.SacflowError` on failure. A simulation that can go on from a stored
+state also has ``restore(step, arrays, first_contact_offset)`` and ``run(start=step + 1)``; its
+states carry that state (``State.restart``).
 
 Runs are never lost and never silently replaced: a finished run file of the same case is kept as
 is; an interrupted one goes on after its last sound stored step (true resume, from the stored
@@ -28,18 +28,18 @@ from typing import Protocol
 from tqdm.auto import tqdm
 
 from sacflow.config.schema import Case
+from sacflow.config.solver_inputs import check_case_memory
 from sacflow.errors import BoxTooShallowError
-from sacflow.solver.memory_estimate import check_memory
 from sacflow.solver.state import GridCoords, State
 from sacflow.storage.output_dir import prepare_output_dir
 from sacflow.storage.run_reader import RunInfo, read_scalars, run_info
 from sacflow.storage.run_writer import RunExistsError, RunWriter, replace_message
 
-__all__ = ["RunSummary", "Simulation", "run", "run_case"]
+__all__ = ["RunSummary", "StateSource", "run", "run_case"]
 
 
-class Simulation(Protocol):
-    """What :func:`run_case` needs from a simulation."""
+class StateSource(Protocol):
+    """What :func:`run_case` needs from a simulation: its grid, its steps, their states."""
 
     coords: GridCoords
     total_steps: int
@@ -84,7 +84,7 @@ def run_case(
     out_dir: str | Path,
     *,
     progress: bool = True,
-    simulation_factory: Callable[[Case], Simulation] | None = None,
+    simulation_factory: Callable[[Case], StateSource] | None = None,
     resume: bool = True,
     overwrite: bool = False,
 ) -> RunSummary:
@@ -99,7 +99,9 @@ def run_case(
     progress : bool
         Show a progress bar (load, max pressure, contact/plasticity iterations).
     simulation_factory : callable, optional
-        ``factory(case) -> simulation``; default ``sacflow.solver.simulation.Simulation``.
+        ``factory(case) -> simulation``; default
+        :func:`sacflow.config.solver_inputs.simulation_for` (with the case's measured surface
+        and stored initial state read).
     resume : bool
         Skip a finished run of the same case; go on after the stored steps of an interrupted
         one, from the solver state stored with the last sound step (a simulation without
@@ -153,15 +155,15 @@ def run_case(
 
 #: How many times a run may deepen its cuboid box (×1.5 each) before giving up.
 _MAX_GROWTHS = 3
-#: Estimated memory above which the run says it is setting up (the set-up of a 128 × 128 × 64
-#: box, estimated at 2.5 GiB, takes 15 s without the kernel cache, 87 s at 256 × 256 × 128).
+#: Estimated memory above which the run says it is setting up: the operators' set-up of such
+#: grids is long (docs/performance.md).
 SETUP_NOTICE_BYTES = 2 << 30
 
 
 def _run_once(
     case: Case,
     info: RunInfo,
-    factory: Callable[[Case], Simulation],
+    factory: Callable[[Case], StateSource],
     progress: bool,
     keep: int,
     requested: str,
@@ -171,8 +173,8 @@ def _run_once(
     Everything stored at the path beyond the first ``keep`` steps is replaced: the caller has
     checked it may be (same case asked afresh, ``overwrite``, or this run's own earlier try).
     """
-    estimate = check_memory(case)  # refuse before allocating what this machine cannot hold
-    if progress and estimate.total > SETUP_NOTICE_BYTES:  # a set-up of a minute or more
+    estimate = check_case_memory(case)  # refuse before allocating what the machine cannot hold
+    if progress and estimate.total > SETUP_NOTICE_BYTES:  # a long set-up
         grid = estimate.grid
         _say(f"{case.name}: setting up the operators of {grid.body[0]} × {grid.body[1]} × "
              f"{grid.nz} cells (kernel spectra from the cache if this grid ran before)",
@@ -216,15 +218,15 @@ def _deeper(case: Case, exc: BoxTooShallowError) -> Case:
     return Case.model_validate(data)
 
 
-def _default_factory() -> Callable[[Case], Simulation]:
+def _default_factory() -> Callable[[Case], StateSource]:
     """Return the solver's simulation factory (it reads a measured surface, a stored state)."""
-    from sacflow.solver.simulation import Simulation as SolverSimulation  # the solver loads lazily
+    from sacflow.config.solver_inputs import simulation_for
     from sacflow.storage.initial_state_file import read_initial_state
     from sacflow.storage.surface_file import load_surface
 
-    def factory(case: Case) -> Simulation:
-        return SolverSimulation(case, surface=load_surface(case),
-                                initial=read_initial_state(case))
+    def factory(case: Case) -> StateSource:
+        return simulation_for(case, surface=load_surface(case),
+                              initial=read_initial_state(case))
 
     return factory
 

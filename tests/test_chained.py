@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 import xarray as xr
 
+from sacflow.config.solver_inputs import simulation_for
 from sacflow.errors import ConfigError
 from sacflow.mechanics.initial_state import InitialStateError
 from sacflow.runner import run_case
-from sacflow.solver.simulation import Simulation
 from sacflow.storage.case_file import case_from_dict
 from sacflow.storage.initial_state_file import read_initial_state
 
@@ -61,14 +61,15 @@ def test_reload_as_a_chained_case_equals_the_whole_run(runs):
 
 def test_chained_start_reproduces_the_source_state(runs):
     case = case_from_dict(_case("start", RELOAD, initial_state={"run": str(runs / "first.nc")}))
-    sim = Simulation(case, initial=read_initial_state(case))
+    sim = simulation_for(case, initial=read_initial_state(case))
     with xr.open_dataset(runs / "first.nc") as first:
         last = first.isel(step=-1)
         u = last["residual_displacement"].values
         np.testing.assert_allclose(sim.residual_displacement, u, atol=1e-9 * np.abs(u).max())
         s = last["residual_stress"].values
         np.testing.assert_allclose(sim.residual_stress, s, atol=1e-9 * np.abs(s).max())
-        np.testing.assert_array_equal(sim.eqps, last["equivalent_plastic_strain"].values)
+        np.testing.assert_array_equal(sim.equivalent_plastic_strain,
+                                      last["equivalent_plastic_strain"].values)
 
 
 def test_offset_moves_the_stored_state(runs):
@@ -76,11 +77,11 @@ def test_offset_moves_the_stored_state(runs):
     cell = GRID["extent"][0] / GRID["nx"]
     case = case_from_dict(_case("shifted", RELOAD, initial_state={
         "run": str(runs / "first.nc"), "offset": [cell, 0.0]}))
-    sim = Simulation(case, initial=read_initial_state(case))
+    sim = simulation_for(case, initial=read_initial_state(case))
     with xr.open_dataset(runs / "first.nc") as first:
         eqps = first["equivalent_plastic_strain"].isel(step=-1).values
-    np.testing.assert_allclose(sim.eqps[1:], eqps[:-1], rtol=1e-12, atol=1e-15)
-    assert not sim.eqps[0].any()
+    np.testing.assert_allclose(sim.equivalent_plastic_strain[1:], eqps[:-1], rtol=1e-12, atol=1e-15)
+    assert not sim.equivalent_plastic_strain[0].any()
 
 
 def test_case_id_follows_the_source_run_not_its_path(runs, tmp_path):
@@ -112,7 +113,7 @@ def test_mistakes_name_the_fix(runs, tmp_path):
     small = case_from_dict(_case("small", RELOAD, initial_state={"run": str(runs / "first.nc")},
                                  grid={**GRID, "depth": 3e-6, "nz": 3}))
     with pytest.raises(InitialStateError, match="plastic zone"):
-        Simulation(small, initial=read_initial_state(small))
+        simulation_for(small, initial=read_initial_state(small))
     with pytest.raises(ConfigError, match="initial_hardening"):
         case_from_dict(_case("both", RELOAD, initial_state={"run": str(runs / "first.nc")},
                              body={**BODY, "initial_hardening": {

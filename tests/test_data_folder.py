@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from reference_data import DATA, seed_rows, seed_value
 
+from sacflow.config.solver_inputs import simulation_for
 from sacflow.mechanics.hertz import hertz_contact
-from sacflow.solver.simulation import Simulation
 from sacflow.storage.case_file import case_from_dict
 from sacflow.storage.surface_file import load_surface, read_measured_surface
 
@@ -64,8 +64,8 @@ def test_a_punch_in_the_synthetic_dent_meets_a_conforming_hollow():
     dented = case_from_dict({**base, "name": "synthetic-dent", "surface": {
         "kind": "measured", "path": str(SURFACES / "dent-rims.txt"), "format": "text"}})
     smooth = case_from_dict({**base, "name": "smooth"})
-    in_dent = list(Simulation(dented, surface=load_surface(dented)).run())[-1]
-    on_flat = list(Simulation(smooth).run())[-1]
+    in_dent = list(simulation_for(dented, surface=load_surface(dented)).run())[-1]
+    on_flat = list(simulation_for(smooth).run())[-1]
     flat = hertz_contact(load, radius, 210e9 / (1.0 - 0.3**2))
     assert on_flat.max_pressure == pytest.approx(flat.p0, rel=0.05)
     assert in_dent.max_pressure < 0.6 * on_flat.max_pressure  # measured 0.49

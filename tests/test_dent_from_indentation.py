@@ -10,7 +10,7 @@ import pytest
 import xarray as xr
 from scipy.interpolate import RegularGridInterpolator
 
-from sacflow.solver.simulation import Simulation
+from sacflow.config.solver_inputs import simulation_for
 from sacflow.storage.case_file import load_case
 from sacflow.storage.initial_state_file import read_initial_state
 
@@ -54,7 +54,7 @@ def test_chained_start_surface_is_the_press_dent(result):
     out, module, _ = result
     source = out / "dent-from-indentation-press.nc"
     case = load_case(module.CHAINED, [*ROLLING, f"initial_state.run={source}"])
-    sim = Simulation(case, initial=read_initial_state(case))
+    sim = simulation_for(case, initial=read_initial_state(case))
     with xr.open_dataset(out / "dent-from-indentation-press.nc") as press:
         u = press["residual_displacement"].isel(step=-1).transpose("x1", "x2")
         x1, x2 = u["x1"].values, u["x2"].values

@@ -19,12 +19,12 @@ import numpy as np
 import pytest
 import xarray as xr
 
+from sacflow.config.solver_inputs import simulation_for
 from sacflow.errors import SacflowError
 from sacflow.kernels.shear import cerruti_stress, rectangle_shear_stress
 from sacflow.kernels.surface import boussinesq_stress, rectangle_stress
 from sacflow.mechanics.hertz import first_yield
 from sacflow.runner import run_case
-from sacflow.solver.simulation import Simulation
 from sacflow.storage.case_file import load_case
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -115,7 +115,7 @@ def test_subsurface_stress_of_the_solver_matches_quadrature():
     """
     mu = 0.3
     case = load_case(SLIDING, [f"friction.coefficient={mu}"])
-    sim = Simulation(case)
+    sim = simulation_for(case)
     state = list(sim.run())[-1]
     a, p0 = sim.hertz.a, sim.hertz.p0
     stress = state.volume["stress"] / p0
@@ -136,7 +136,7 @@ def run_elastic(mu: float, nz: int = 32):
     """Largest von Mises stress / p0 of the sliding contact and where (x1/a, depth/a)."""
     case = load_case(SLIDING, [f"friction.coefficient={mu}", f"grid.nz={nz}",
                                "grid.depth=0.1866e-3", "grid.half_width=1.25"])
-    sim = Simulation(case)
+    sim = simulation_for(case)
     vm = list(sim.run())[-1].volume["von_mises"] / sim.hertz.p0
     i, j, k = np.unravel_index(int(vm.argmax()), vm.shape)
     return float(vm.max()), sim.coords.x1[i] / sim.hertz.a, sim.coords.x3[k] / sim.hertz.a
@@ -166,8 +166,8 @@ def test_zero_friction_is_bit_identical_to_no_friction():
     zero = load_case(ROOT / "configs" / "rolling-smooth-traction.toml",
                      [*TINY_PLASTIC, "friction.coefficient=0"])
     assert zero.friction is not None and base.friction is None
-    a = list(Simulation(base).run())
-    b = list(Simulation(zero).run())
+    a = list(simulation_for(base).run())
+    b = list(simulation_for(zero).run())
     assert len(a) == len(b)
     for sa, sb in zip(a, b, strict=True):
         for group in ("surface", "volume"):
@@ -188,7 +188,7 @@ def test_plastic_zone_rises_with_traction():
     for mu in (0.0, 0.3, 0.5):
         case = load_case(ROOT / "configs" / "rolling-smooth-traction.toml",
                          [*PLASTIC_GRID, f"friction.coefficient={mu}"])
-        sim = Simulation(case)
+        sim = simulation_for(case)
         eqps = list(sim.run())[-1].volume["equivalent_plastic_strain"]
         z = sim.coords.x3 / sim.hertz.a
         depth_of_max.append(z[np.unravel_index(int(eqps.argmax()), eqps.shape)[2]])

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from sacflow.compare.fields import refined_peak
-from sacflow.solver.simulation import Simulation
+from sacflow.config.solver_inputs import simulation_for
 from sacflow.storage.case_file import load_case
 
 CONFIG = Path(__file__).parent.parent / "configs" / "nanoindentation-190mN.toml"
@@ -26,10 +26,11 @@ GRIDS = ((48, 18), (72, 27), (108, 40))
 
 def results(nx: int, nz: int) -> dict[str, float]:
     case = load_case(CONFIG, [f"grid.nx={nx}", f"grid.ny={nx}", f"grid.nz={nz}"])
-    sim = Simulation(case)
+    sim = simulation_for(case)
     states = list(sim.run())
     top = int(np.argmax([s.load for s in states]))
-    peak, where = refined_peak(sim.eqps, (sim.coords.x1, sim.coords.x2, sim.coords.x3))
+    peak, where = refined_peak(sim.equivalent_plastic_strain,
+                               (sim.coords.x1, sim.coords.x2, sim.coords.x3))
     return {
         "max_plastic_strain": peak,
         "max_plastic_strain_depth": where[2],
@@ -54,9 +55,9 @@ def coarse_results(nx: int, nz: int) -> dict[str, float]:
     """``nanoindentation-190mN`` loaded in 2 increments and unloaded in 1, on nx² × nz cells."""
     case = load_case(CONFIG, [f"grid.nx={nx}", f"grid.ny={nx}", f"grid.nz={nz}",
                               "load_path.0.increments=2", "load_path.1.increments=1"])
-    sim = Simulation(case)
+    sim = simulation_for(case)
     *_, last = sim.run()
-    return {"max_plastic_strain": float(sim.eqps.max()),
+    return {"max_plastic_strain": float(sim.equivalent_plastic_strain.max()),
             "print_depth": float(last.surface["residual_displacement"].max())}
 
 

@@ -12,11 +12,11 @@ import math
 import numpy as np
 import pytest
 
+from sacflow.config.solver_inputs import simulation_for
 from sacflow.errors import ConfigError
 from sacflow.mechanics.hertz import composite_modulus, hertz_subsurface_stress
 from sacflow.mechanics.initial_state import InitialYieldError
 from sacflow.mechanics.stress_measures import von_mises
-from sacflow.solver.simulation import Simulation
 from sacflow.storage.case_file import case_from_dict
 
 E, NU, RADIUS, SIGMA_Y = 210e9, 0.3, 10e-3, 1.0e9
@@ -57,7 +57,7 @@ def _case(load: float, sigma_r: float, hardening=None, initial_hardening=None) -
 
 
 def _last(case: dict):
-    return list(Simulation(case_from_dict(case)).run())[-1]
+    return list(simulation_for(case_from_dict(case)).run())[-1]
 
 
 @pytest.mark.parametrize("ratio", [0.1, 0.0, -0.1, -0.2, -0.3])
@@ -108,7 +108,7 @@ def test_initial_hardening_raises_the_first_yield_load():
 
 def test_initial_stress_above_yield_is_refused():
     with pytest.raises(InitialYieldError, match="exceeds the yield stress"):
-        Simulation(case_from_dict(_case(_load_for_p0(1e9), -1.2 * SIGMA_Y)))
+        simulation_for(case_from_dict(_case(_load_for_p0(1e9), -1.2 * SIGMA_Y)))
 
 
 @pytest.mark.parametrize(

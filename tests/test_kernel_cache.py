@@ -59,24 +59,24 @@ def test_contact_stress_operator_from_the_cache_equals_the_computed_one(cache):
     kernels (friction adds the traction's stress) are another entry."""
     from pathlib import Path
 
-    from sacflow.solver.simulation import Simulation
+    from sacflow.config.solver_inputs import simulation_for
     from sacflow.storage.case_file import load_case
 
     config = Path(__file__).resolve().parents[1] / "configs" / "rolling-cycles-shakedown.toml"
     small = ["grid.nx=12", "grid.ny=12", "grid.nz=4", "load_path.1.steps=2"]
-    first = Simulation(load_case(config, small))
+    first = simulation_for(load_case(config, small))
     entries = kernel_cache.list_entries(cache)
     assert sorted(e.kind for e in entries) == ["contact_stress", "eigenstrain"]
     listed = {e.kind: e.parameters["shape"] for e in entries}  # what `sacflow cache` shows
     assert listed["contact_stress"] == [*first.body_shape, first.nz] == listed["eigenstrain"]
-    second = Simulation(load_case(config, small))
-    spectra = second.pressure_stress_op.spectra
+    second = simulation_for(load_case(config, small))
+    spectra = second.operators.pressure_stress_op.spectra
     assert isinstance(spectra, np.memmap) or isinstance(spectra.base, np.memmap)
-    np.testing.assert_array_equal(spectra, first.pressure_stress_op.spectra)
+    np.testing.assert_array_equal(spectra, first.operators.pressure_stress_op.spectra)
     pressure = np.random.default_rng(2).random(first.body_shape)
-    np.testing.assert_array_equal(second.pressure_stress_op(pressure[None]),
-                                  first.pressure_stress_op(pressure[None]))
-    Simulation(load_case(config, [*small, "friction.coefficient=0.2"]))
+    np.testing.assert_array_equal(second.operators.body_pressure_stress(pressure),
+                                  first.operators.body_pressure_stress(pressure))
+    simulation_for(load_case(config, [*small, "friction.coefficient=0.2"]))
     kinds = sorted(e.kind for e in kernel_cache.list_entries(cache))
     assert kinds == ["contact_stress", "contact_stress", "eigenstrain"]
 

@@ -17,6 +17,7 @@ import pytest
 
 import sacflow
 from sacflow import runner
+from sacflow.config.solver_inputs import simulation_for, solver_inputs
 from sacflow.errors import SacflowError
 from sacflow.solver.simulation import Simulation
 from sacflow.storage.case_file import load_case
@@ -29,8 +30,9 @@ AF = ["body.hardening.kinematic.modulus=50e9", "body.hardening.kinematic.recall=
 
 
 def test_zero_kinematic_modulus_is_the_isotropic_run():
-    iso = list(Simulation(load_case(CASE, TINY)).run())
-    kin = list(Simulation(load_case(CASE, [*TINY, "body.hardening.kinematic.modulus=0"])).run())
+    iso = list(simulation_for(load_case(CASE, TINY)).run())
+    kin = list(simulation_for(load_case(CASE, [*TINY, "body.hardening.kinematic.modulus=0"]))
+               .run())
     a, b = iso[-1].volume, kin[-1].volume
     scale = float(np.abs(a["plastic_strain"]).max())
     assert scale > 0
@@ -57,6 +59,11 @@ class Interrupted(Simulation):
 
     stop_after = 9
 
+    @classmethod
+    def of(cls, case):
+        """The simulation factory: this simulation of ``case``."""
+        return cls(solver_inputs(case))
+
     def run(self, start: int = 0):
         for count, state in enumerate(super().run(start)):
             if count == self.stop_after:
@@ -69,7 +76,7 @@ def test_resume_restores_the_backstress(tmp_path):
     whole = sacflow.open_run(runner.run_case(case, tmp_path / "whole", progress=False).path)
     out = tmp_path / "cut"
     with pytest.raises(KeyboardInterrupt):
-        runner.run_case(case, out, progress=False, simulation_factory=Interrupted)
+        runner.run_case(case, out, progress=False, simulation_factory=Interrupted.of)
     assert run_info(out / f"{case.name}.nc").steps == Interrupted.stop_after
     resumed = sacflow.open_run(runner.run_case(case, out, progress=False).path)
     for name in ("backstress", "plastic_strain", "equivalent_plastic_strain", "pressure"):

@@ -216,15 +216,15 @@ def test_melan_stage_on_a_repeated_rolling_run(tmp_path, capsys):
 
     from sacflow.cli import main
     from sacflow.compare.melan_bound import melan
+    from sacflow.config.solver_inputs import case_steps
     from sacflow.runner import run_case
-    from sacflow.solver.layout import plan_steps
     from sacflow.storage.case_file import load_case
 
     config = ROOT / "configs" / "rolling-cycles-shakedown.toml"
     case = load_case(config, ["grid.nx=12", "grid.ny=12", "grid.nz=6", "load_path.1.steps=4",
                               "load_path.1.passes=2"])
     path = run_case(case, tmp_path / "run", progress=False).path
-    plan = plan_steps(case.load_path)
+    plan = case_steps(case)
     last_pass = [i for i, s in enumerate(plan) if s.pass_index == 1
                  and case.load_path[s.segment].kind == "roll" and s.load == case.max_load]
     result = melan(path)

@@ -17,13 +17,13 @@ from pathlib import Path
 import pytest
 
 from sacflow.cli import main
+from sacflow.config.solver_inputs import (
+    case_body_grid,
+    check_case_memory,
+    estimate_case_memory,
+)
 from sacflow.errors import GridTooLargeError
 from sacflow.machine.resources import available_memory
-from sacflow.solver.memory_estimate import (
-    body_grid,
-    check_memory,
-    estimate_memory,
-)
 from sacflow.storage.case_file import load_case
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
@@ -39,8 +39,8 @@ def item(estimate, name: str) -> int:
 
 
 def test_eigenstrain_part_doubles_with_nz():
-    shallow = estimate_memory(load_case(NANO, ["grid.nz=16"]))
-    deep = estimate_memory(load_case(NANO, ["grid.nz=32"]))
+    shallow = estimate_case_memory(load_case(NANO, ["grid.nz=16"]))
+    deep = estimate_case_memory(load_case(NANO, ["grid.nz=32"]))
     ratio = item(deep, "eigenstrain operator") / item(shallow, "eigenstrain operator")
     assert 1.9 < ratio < 2.1, ratio  # N + 1 depth frequencies: 65 / 33
     assert item(deep, "solver state") == 2 * item(shallow, "solver state")
@@ -48,8 +48,8 @@ def test_eigenstrain_part_doubles_with_nz():
 
 
 def test_estimate_grows_with_the_surface_grid():
-    small = estimate_memory(load_case(HERTZ, ["grid.nx=64", "grid.ny=64"]))
-    large = estimate_memory(load_case(HERTZ, ["grid.nx=128", "grid.ny=128"]))
+    small = estimate_case_memory(load_case(HERTZ, ["grid.nx=64", "grid.ny=64"]))
+    large = estimate_case_memory(load_case(HERTZ, ["grid.nx=128", "grid.ny=128"]))
     assert item(large, "per-step fields") == pytest.approx(4 * item(small, "per-step fields"),
                                                           rel=0.01)
     assert 3.5 < item(large, "pressure-stress operator") / item(
@@ -61,21 +61,21 @@ def test_estimate_grows_with_the_surface_grid():
 
 def test_rolling_body_grid_is_the_solver_s(tmp_path):
     from sacflow.config.schema import Elastic
-    from sacflow.solver.simulation import Simulation
+    from sacflow.config.solver_inputs import simulation_for
 
     case = load_case(ROLLING, ["grid.nx=16", "grid.ny=16", "grid.nz=2", "load_path.1.steps=5"])
     elastic = case.model_copy(update={"body": case.body.model_copy(
         update={"hardening": Elastic()})})
-    grid = body_grid(elastic)
-    assert grid.body == Simulation(elastic).body_shape
+    grid = case_body_grid(elastic)
+    assert grid.body == simulation_for(elastic).body_shape
     assert grid.body[0] > grid.window[0] and grid.body[1] == grid.window[1], "swept along x1"
 
 
 def test_check_memory_refuses_a_grid_larger_than_available():
     case = load_case(NANO, ["grid.nx=32", "grid.ny=32"])
-    estimate = check_memory(case, available=64 * GIB)
+    estimate = check_case_memory(case, available=64 * GIB)
     with pytest.raises(GridTooLargeError) as error:
-        check_memory(case, available=estimate.total - 1)
+        check_case_memory(case, available=estimate.total - 1)
     message = str(error.value)
     assert "needs about" in message and "available" in message
     for part in estimate.biggest():
@@ -133,14 +133,14 @@ _MEASURE = """
 import json, re, sys, tempfile
 from pathlib import Path
 from sacflow.storage.case_file import load_case
-from sacflow.solver.memory_estimate import estimate_memory
+from sacflow.config.solver_inputs import estimate_case_memory
 from sacflow.runner import run_case
 case = load_case(sys.argv[1], sys.argv[2:])
 with tempfile.TemporaryDirectory() as out:
     run_case(case, out, progress=False)
 status = Path("/proc/self/status").read_text()
 peak = int(re.search(r"VmHWM:\\s+(\\d+) kB", status).group(1)) * 1024
-print(json.dumps({"peak": peak, "estimate": estimate_memory(case).total}))
+print(json.dumps({"peak": peak, "estimate": estimate_case_memory(case).total}))
 """
 
 
@@ -172,11 +172,11 @@ ADDRESS_SPACE_LIMITED = """
 import resource, sys
 from sacflow.errors import GridTooLargeError
 from sacflow.machine.resources import available_memory, process_limit_left
-from sacflow.solver.memory_estimate import check_memory, estimate_memory
+from sacflow.config.solver_inputs import check_case_memory, estimate_case_memory
 from sacflow.storage.case_file import load_case
 
 case = load_case({config!r}, ["grid.nx=128", "grid.ny=128", "grid.nz=64"])
-need = estimate_memory(case).total
+need = estimate_case_memory(case).total
 before = available_memory()
 assert process_limit_left() is None, "no limit yet"
 size = next(int(line.split()[1]) * 1024 for line in open("/proc/self/status")
@@ -184,7 +184,7 @@ size = next(int(line.split()[1]) * 1024 for line in open("/proc/self/status")
 resource.setrlimit(resource.RLIMIT_AS, (size + need // 2, resource.RLIM_INFINITY))  # ulimit -v
 left = available_memory()
 try:
-    check_memory(case)
+    check_case_memory(case)
     refused = False
 except GridTooLargeError:
     refused = True

@@ -22,8 +22,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from sacflow.config.solver_inputs import simulation_for
 from sacflow.kernels.eigenstrain import HalfSpaceEigenstrain
-from sacflow.solver.simulation import Simulation
 from sacflow.storage.case_file import case_from_dict
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -63,7 +63,7 @@ def test_step_case_is_the_recorded_one(reference):
 
 
 def test_elastic_plastic_step_equals_recorded(reference):
-    state = next(iter(Simulation(case_from_dict(recorded.STEP_CASE)).run()))
+    state = next(iter(simulation_for(case_from_dict(recorded.STEP_CASE)).run()))
     assert state.converged and state.substeps == 1
     for name in ("plastic_strain", "residual_stress", "stress"):
         assert_close_to_recorded(state.volume[name], reference[f"step_{name}"], name)

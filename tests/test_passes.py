@@ -18,8 +18,8 @@ import pytest
 import xarray as xr
 
 from sacflow.compare.pass_history import classify, passes
+from sacflow.config.solver_inputs import case_steps
 from sacflow.runner import run_case
-from sacflow.solver.layout import plan_steps
 from sacflow.storage.case_file import load_case
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -29,7 +29,7 @@ SMOOTH = ROOT / "configs" / "rolling-smooth.toml"
 def test_lifted_passes_unload_return_and_reload():
     case = load_case(SMOOTH, ["load_path.0.increments=1", "load_path.1.steps=2",
                               "load_path.1.passes=3", "load_path.1.lift_increments=1"])
-    steps = plan_steps(case.load_path)
+    steps = case_steps(case)
     loads = [s.load for s in steps]
     x1 = [round(s.position[0] * 1e3, 6) for s in steps]
     labels = [s.pass_index for s in steps]
@@ -43,13 +43,13 @@ def test_lifted_passes_unload_return_and_reload():
 def test_reversed_passes_roll_back_over_the_track():
     case = load_case(SMOOTH, ["load_path.0.increments=1", "load_path.1.steps=2",
                               "load_path.1.passes=3", "load_path.1.between=reverse"])
-    x1 = [round(s.position[0] * 1e3, 6) for s in plan_steps(case.load_path)]
+    x1 = [round(s.position[0] * 1e3, 6) for s in case_steps(case)]
     assert x1 == [0, 2.1, 4.2, 2.1, 0, 2.1, 4.2, 4.2, 4.2]
 
 
 def test_cases_without_passes_are_unchanged():
     case = load_case(SMOOTH)
-    steps = plan_steps(case.load_path)
+    steps = case_steps(case)
     assert {s.pass_index for s in steps} == {0}
     assert "passes" not in case.identity()["load_path"][1]
     assert case.case_id == "8ce69a0f0c18"  # as before passes existed (issue #15's identity)

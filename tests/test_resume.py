@@ -15,6 +15,7 @@ from numpy.testing import assert_allclose
 import sacflow
 from sacflow import runner
 from sacflow.cli import main
+from sacflow.config.solver_inputs import solver_inputs
 from sacflow.errors import ConvergenceError
 from sacflow.solver.simulation import Simulation
 from sacflow.storage.run_parts import parts_dir
@@ -39,6 +40,11 @@ class Interrupted(Simulation):
 
     stop_after = 3
 
+    @classmethod
+    def of(cls, case):
+        """The simulation factory: this simulation of ``case``."""
+        return cls(solver_inputs(case))
+
     def run(self, start: int = 0):
         for count, state in enumerate(super().run(start)):
             if count == self.stop_after:
@@ -62,19 +68,20 @@ def uninterrupted(indent_case, tmp_path_factory):
 def solved_steps(monkeypatch):
     """Count the increments the solver computes."""
     counted: list[int] = []
-    original = Simulation._advance
+    original = Simulation.solve_increment
 
-    def advance(self, step, plan, every):
-        counted.append(step)
-        return original(self, step, plan, every)
+    def solve_increment(self, step, plan):
+        if not counted or counted[-1] != step:  # a step cut back is one step
+            counted.append(step)
+        return original(self, step, plan)
 
-    monkeypatch.setattr(Simulation, "_advance", advance)
+    monkeypatch.setattr(Simulation, "solve_increment", solve_increment)
     return counted
 
 
 def interrupt(case, out: Path, after: int) -> Path:
     """Run ``case`` into ``out`` and interrupt it after ``after`` stored steps."""
-    factory = type("Stop", (Interrupted,), {"stop_after": after})
+    factory = type("Stop", (Interrupted,), {"stop_after": after}).of
     with pytest.raises(KeyboardInterrupt):
         runner.run_case(case, out, progress=False, simulation_factory=factory)
     path = out / f"{case.name}.nc"
@@ -246,6 +253,11 @@ def test_info_says_what_is_stored(indent_case, tmp_path, capsys):
 class InterruptedWhenGrown(Simulation):
     """Interrupted after one state, but only once its box has been deepened (nz > 4)."""
 
+    @classmethod
+    def of(cls, case):
+        """The simulation factory: this simulation of ``case``."""
+        return cls(solver_inputs(case))
+
     def run(self, start: int = 0):
         for count, state in enumerate(super().run(start)):
             if count == 1 and self.nz > 4:
@@ -265,7 +277,7 @@ def test_interrupted_run_with_a_grown_box_resumes_as_grown(tmp_path, solved_step
     path = [{"kind": "load", "to": load, "increments": 1}, {"kind": "hold", "increments": 2}]
     case = sphere_case(law, path, nx=24, nz=4, depth=0.4 * a)
     with pytest.warns(RuntimeWarning, match="running again"), pytest.raises(KeyboardInterrupt):
-        runner.run_case(case, tmp_path, progress=False, simulation_factory=InterruptedWhenGrown)
+        runner.run_case(case, tmp_path, progress=False, simulation_factory=InterruptedWhenGrown.of)
     info = run_info(tmp_path / f"{case.name}.nc")
     assert info.steps == 1 and info.matches(case.case_id) and info.case_id != case.case_id
     solved_steps.clear()

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from sacflow.solver.simulation import Simulation
+from sacflow.config.solver_inputs import simulation_for
 from sacflow.storage.case_file import case_from_dict, load_case
 
 E, NU = 210e9, 0.3
@@ -30,7 +30,7 @@ def elastic_rolling_case(nx=96, cells=6):
 def test_elastic_rolling_reproduces_hertz_and_moves_with_the_load():
     case = elastic_rolling_case()
     hz = case.hertz()
-    states = list(Simulation(case).run())
+    states = list(simulation_for(case).run())
     first = states[0].surface["pressure"]
     for shift, state in enumerate(states):
         assert_allclose(state.max_pressure, hz.p0, rtol=5e-3, err_msg=f"p0 at step {shift}")
@@ -45,7 +45,7 @@ def test_dented_vertical_pressure_keeps_the_dent_symmetry():
     case = load_case("configs/dent-vertical.toml", [
         "grid.nx=32", "grid.ny=32", "grid.nz=4", 'body.hardening={law="elastic"}',
         "load_path.0.increments=1"])
-    state = next(iter(Simulation(case).run()))
+    state = next(iter(simulation_for(case).run()))
     p = state.surface["pressure"]
     scale = p.max()
     for name, other in (("x1 -> -x1", p[::-1]), ("x2 -> -x2", p[:, ::-1]), ("x1 <-> x2", p.T)):
@@ -58,7 +58,7 @@ def test_dented_vertical_pressure_keeps_the_dent_symmetry():
 @pytest.mark.slow
 def test_rolling_smooth_reaches_a_steady_state():
     case = load_case("configs/rolling-smooth.toml", ["load_path.1.steps=60"])
-    sim = Simulation(case)
+    sim = simulation_for(case)
     for _ in sim.run():
         pass
     track = sim.residual_displacement[:, sim.body_shape[1] // 2]

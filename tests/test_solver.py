@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
+from sacflow.config.solver_inputs import simulation_for
 from sacflow.errors import ConvergenceError
 from sacflow.mechanics.hertz import composite_modulus, hertz_contact
 from sacflow.mechanics.stress_measures import von_mises
-from sacflow.solver.simulation import Simulation
 from sacflow.storage.case_file import case_from_dict
 
 E, NU, R = 210e9, 0.3, 105e-6
@@ -32,7 +32,7 @@ def sphere_case(hardening, load_path, nx=32, nz=12, depth=None, **solver):
 
 
 def run_all(case):
-    sim = Simulation(case)
+    sim = simulation_for(case)
     return sim, list(sim.run())
 
 
@@ -53,7 +53,7 @@ def test_elastic_limit_equals_elastic_solver():
         assert_allclose(b.surface["pressure"], a.surface["pressure"], rtol=0, atol=1e-9 * 1e10,
                         err_msg=f"pressure, step {a.step}")
         assert_allclose(b.approach, a.approach, rtol=1e-12, atol=1e-18, err_msg="approach")
-    assert not sim.eqps.any(), "no plastic strain may appear"
+    assert not sim.equivalent_plastic_strain.any(), "no plastic strain may appear"
     assert_allclose(high[1].volume["stress"], elastic[1].volume["stress"], atol=1.0,
                     err_msg="stress field")
 
@@ -68,16 +68,17 @@ def test_yield_onset_at_hertz_ratio():
     case = sphere_case({"law": "linear", "yield_stress": sigma_y, "modulus": 0.1 * E}, path,
                        nx=48, nz=32, depth=0.9 * hertz_contact(path[-1]["to"], R,
                                                                composite_modulus(E, NU)).a)
-    sim = Simulation(case)
+    sim = simulation_for(case)
     first, load = None, None
     for state, ratio in zip(sim.run(), ratios, strict=True):
         load = state.load
-        if sim.eqps.max() > 0:
+        if sim.equivalent_plastic_strain.max() > 0:
             first = ratio
             break
     assert first is not None, "no yield up to p0/σ_Y = 1.68"
     assert 1.61 * 0.98 <= first <= 1.61 * 1.02 + 0.02, f"first yield at p0/σ_Y = {first}"
-    depth = sim.coords.x3[np.unravel_index(sim.eqps.argmax(), sim.eqps.shape)[2]]
+    p = sim.equivalent_plastic_strain
+    depth = sim.coords.x3[np.unravel_index(p.argmax(), p.shape)[2]]
     a = hertz_contact(load, R, composite_modulus(E, NU)).a
     assert 0.40 < depth / a < 0.56, f"first yield at x3 = {depth / a:.3f} a"
 
@@ -88,11 +89,11 @@ def indentation():
     path = [{"kind": "load", "to": 0.19, "increments": 4}, {"kind": "unload", "increments": 2}]
     case = sphere_case({"law": "swift", "B": 1240e6, "C": 30.0, "n": 0.085,
                         "strain_unit": "microstrain"}, path, nx=32, nz=16)
-    sim = Simulation(case)
+    sim = simulation_for(case)
     states, eqps = [], []
     for state in sim.run():
         states.append(state)
-        eqps.append(sim.eqps.copy())
+        eqps.append(sim.equivalent_plastic_strain.copy())
     return sim, states, eqps
 
 
@@ -101,7 +102,7 @@ def test_consistency_at_convergence(indentation):
     loaded = states[3]
     vm = von_mises(loaded.volume["stress"])
     sy = loaded.volume["yield_stress"]
-    tol = sim.case.solver.plasticity_tolerance
+    tol = sim.inputs.settings.plasticity_tolerance
     assert (vm <= sy * (1 + 1e-6)).all(), f"max VM/σ_Y = {(vm / sy).max()}"
     active = loaded.volume["equivalent_plastic_strain"] > 0
     assert active.any()
@@ -209,9 +210,9 @@ def test_measured_surface_comes_as_arrays(tmp_path):
     smooth = load_case(hertz, sets)
     measured = load_case(hertz, [*sets, "surface.kind=measured", f"surface.path={path}"])
     with pytest.raises(SacflowError, match="load_surface"):
-        Simulation(measured)
+        simulation_for(measured)
     surface = load_surface(measured)
     assert isinstance(surface, MeasuredSurface) and surface.height.shape == (9, 9)
-    a = next(Simulation(measured, surface=surface).run())
-    b = next(Simulation(smooth).run())
+    a = next(simulation_for(measured, surface=surface).run())
+    b = next(simulation_for(smooth).run())
     np.testing.assert_array_equal(a.surface["pressure"], b.surface["pressure"])

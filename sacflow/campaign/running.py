@@ -16,7 +16,7 @@ import time
 import traceback
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from tqdm.auto import tqdm
 
@@ -24,9 +24,12 @@ from sacflow.campaign import cluster
 from sacflow.campaign.expansion import CampaignCase, expand_campaign, load_campaign
 from sacflow.campaign.manifest import CampaignSummary, Manifest
 from sacflow.config.schema import Campaign, Case, Elastic
+from sacflow.config.solver_inputs import estimate_case_memory
 from sacflow.errors import ConfigError, SacflowError
-from sacflow.solver.memory_estimate import estimate_memory
 from sacflow.storage.output_dir import prepare_output_dir
+
+if TYPE_CHECKING:
+    from sacflow.runner import StateSource
 
 __all__ = [
     "WORKER_DIED",
@@ -40,7 +43,8 @@ WORKER_DIED = (
     "the worker process died running this case (out of memory, or a crash in compiled code); "
     "see the dask worker logs"
 )
-SimulationFactory = Callable[[Case], Any]
+#: ``factory(case) -> simulation`` (:class:`sacflow.runner.StateSource`).
+SimulationFactory = Callable[[Case], "StateSource"]
 
 
 class CampaignConflictError(ConfigError):
@@ -108,7 +112,7 @@ def run_campaign(
     )
     n_workers, dashboard = 0, None
     if pending:
-        memory = {c.index: estimate_memory(c.case).total for c in pending}
+        memory = {c.index: estimate_case_memory(c.case).total for c in pending}
         with cluster.connect(scheduler, workers, len(pending), max(memory.values())) as client:
             n_workers = len(client.nthreads())
             dashboard = cluster.dashboard(client, local=not scheduler)

@@ -47,9 +47,9 @@ VERDICT_RULE = (
 
 def _default_step(case: Any, steps: np.ndarray) -> int:
     """Return the middle rolling step of the last pass at full load."""
-    from sacflow.solver.layout import plan_steps
+    from sacflow.config.solver_inputs import case_steps
 
-    plan = plan_steps(case.load_path)
+    plan = case_steps(case)
     rolling = [i for i, s in enumerate(plan) if case.load_path[s.segment].kind == "roll"]
     if not rolling:
         raise CompareError(f"{STAGE}: the run has no roll segment; give --step")

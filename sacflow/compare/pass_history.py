@@ -71,14 +71,14 @@ def passes(run: str | Path | xr.Dataset) -> xr.Dataset:
     CompareError
         When the run has fewer than two passes, lacks the fields, or misses a pass's end.
     """
-    from sacflow.solver.layout import plan_steps
+    from sacflow.config.solver_inputs import case_steps
 
     stage = "passes"
     ds = load_run(run)
     require(ds, "equivalent_plastic_strain", "plastic_strain", "residual_displacement",
             "load_x2", stage=stage)
     case = case_of(ds)
-    plan = plan_steps(case.load_path)
+    plan = case_steps(case)
     ends = [i for i, s in enumerate(plan) if s.pass_end]
     if len(ends) < 2:
         raise CompareError(f"{stage}: the run has {len(ends)} rolling pass(es); give its roll "

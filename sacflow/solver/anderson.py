@@ -96,7 +96,8 @@ class AndersonMixer:
         (the support, class notes) instead of the O(m² n) of a QR factorisation of ``ΔF``.
         """
         if self.depth == 0:
-            return x + self.mixing * (gx - x)
+            plain: np.ndarray = x + self.mixing * (gx - x)
+            return plain
         self._grow_support(x, gx)
         support = self._support
         xs, gs = x[support], gx[support]

@@ -3,7 +3,9 @@
 A grid too large for the machine must be refused with a clear message by ``sacflow validate``
 and before ``sacflow run`` allocates its operators, not end in numpy's ``_ArrayMemoryError``
 half-way through the set-up. :func:`estimate_memory` derives the peak resident memory of a run
-from the shapes of the arrays the solver allocates (:class:`sacflow.solver.simulation.Simulation`):
+from the shapes of the arrays the solver allocates (:class:`sacflow.solver.simulation.Simulation`)
+on its body grid (:func:`~sacflow.solver.layout.body_grid`; a case's is laid out by
+:func:`sacflow.config.solver_inputs.estimate_case_memory`):
 
 * the contact compliance (DC-FFT on the contact window,
   :class:`~sacflow.kernels.convolution.Convolution`) and the contact solver's window arrays
@@ -22,11 +24,11 @@ from the shapes of the arrays the solver allocates (:class:`sacflow.solver.simul
 * the interpreter and its libraries (numpy, scipy, pyfftw, xarray, netCDF4, and numba for
   plastic bodies), measured.
 
-The body grid of a rolling case is the contact window swept along the track
-(:func:`body_grid`). The estimate is for the case as given; if plastic strain reaches the bottom
-of the cuboid box, ``sacflow run`` deepens it 1.5 times (more layers, more memory) and runs
-again. Calibration (peak resident memory, ``/usr/bin/time -v sacflow run``, 2-core machine):
-see :data:`LIBRARY_BYTES` and the module tests.
+The body grid of a rolling case is the contact window swept along the track. The estimate is
+for the case as given; if plastic strain reaches the bottom of the cuboid box, ``sacflow run``
+deepens it 1.5 times (more layers, more memory) and runs again. Calibration (peak resident
+memory, ``/usr/bin/time -v sacflow run``, 2-core machine): see :data:`LIBRARY_BYTES` and the
+module tests.
 """
 
 from __future__ import annotations
@@ -35,15 +37,14 @@ from dataclasses import dataclass
 
 from sacflow.errors import GridTooLargeError
 from sacflow.machine.resources import available_memory
-from sacflow.solver.layout import BodyGrid, body_grid
+from sacflow.solver.layout import BodyGrid
 
 __all__ = [
-    "BodyGrid",
     "MemoryEstimate",
     "MemoryItem",
-    "body_grid",
     "check_memory",
     "estimate_memory",
+    "format_bytes",
 ]
 
 #: Bytes of a float64 and of a complex128.
@@ -62,10 +63,9 @@ LIBRARY_BYTES = {"elastic": 90 * 2**20, "plastic": 270 * 2**20}
 CONTACT_ARRAYS = 14
 #: Volume tensor fields of the plastic state (plastic strain, residual stress) and of one
 #: increment's fixed point besides the Anderson history and the GMRES basis
-#: (:meth:`sacflow.solver.simulation.Simulation._fixed_point`): the iterate, the pressure stress
-#: and its
-#: reshaped copy, the residual stress of the iterate and their sum, the trial stress and
-#: ``2μ x``, the returned increment ``G(x)``, the last evaluation's fields.
+#: (:meth:`sacflow.solver.fixed_point.PlasticFixedPoint.solve`): the iterate, the pressure
+#: stress and its reshaped copy, the residual stress of the iterate and their sum, the trial
+#: stress and ``2μ x``, the returned increment ``G(x)``, the last evaluation's fields.
 PLASTIC_STATE_TENSORS = 2
 FIXED_POINT_TENSORS = 9
 #: Tensor fields the Anderson mixer holds besides its ``2 × depth`` differences: the last
@@ -83,10 +83,9 @@ ANDERSON_SUPPORT = 0.25
 GMRES_RESTART = 30
 NEWTON_EXTRA = 3
 #: Tensor (6 components) and scalar volume fields of one state with volume output
-#: (:meth:`sacflow.solver.simulation.Simulation._volume_fields` and ``_state``): plastic strain,
-#: residual
-#: stress and stress; equivalent plastic strain, von Mises and yield stress; a plastic body's
-#: state adds the restart copies of the plastic strain and the equivalent plastic strain.
+#: (:class:`sacflow.solver.step_state.StateBuilder`): plastic strain, residual stress and
+#: stress; equivalent plastic strain, von Mises and yield stress; a plastic body's state adds
+#: the restart copies of the plastic strain and the equivalent plastic strain.
 STATE_TENSORS = {"elastic": 3, "plastic": 4}
 STATE_SCALARS = {"elastic": 3, "plastic": 4}
 #: Surface arrays of one state (five stored surface fields, two restart arrays, work copies).
@@ -216,15 +215,15 @@ def _tensor_bytes(grid: BodyGrid) -> int:
     return COMPONENTS * FLOAT * grid.body[0] * grid.body[1] * grid.nz
 
 
-def _solver_state(grid: BodyGrid, case) -> tuple[MemoryItem, MemoryItem]:
+def _solver_state(grid: BodyGrid, anderson_depth: int) -> tuple[MemoryItem, MemoryItem]:
     """Plastic state, one increment's fixed point and Anderson history; the GMRES basis.
 
     The Anderson history is kept on the support of the plastic strain increment
     (:class:`sacflow.solver.anderson.AndersonMixer`), counted as :data:`ANDERSON_SUPPORT` of the
-    box.
+    box; ``anderson_depth`` is 0 without Anderson mixing.
     """
     tensor = _tensor_bytes(grid)
-    depth = case.solver.anderson_depth if case.solver.acceleration == "anderson" else 0
+    depth = anderson_depth
     fields = (PLASTIC_STATE_TENSORS + 1 / COMPONENTS + FIXED_POINT_TENSORS
               + (2 * depth + ANDERSON_EXTRA) * ANDERSON_SUPPORT)
     state = MemoryItem(
@@ -251,8 +250,8 @@ def _states(grid: BodyGrid, plastic: bool) -> MemoryItem:
     )
 
 
-def estimate_memory(case) -> MemoryEstimate:
-    """Estimated peak resident memory of running ``case`` [bytes], by item.
+def estimate_memory(grid: BodyGrid, plastic: bool, anderson_depth: int) -> MemoryEstimate:
+    """Estimated peak resident memory of a run [bytes], by item.
 
     The peak is that of the heavier of two phases: the set-up (operators built, with the
     transient of the last one built) and the increments (operators, solver state, fixed point,
@@ -260,8 +259,12 @@ def estimate_memory(case) -> MemoryEstimate:
 
     Parameters
     ----------
-    case : sacflow.config.schema.Case
-        The validated case.
+    grid : BodyGrid
+        The run's body grid (:func:`~sacflow.solver.layout.body_grid`).
+    plastic : bool
+        Whether the body can yield (the eigenstrain operator and the plastic state).
+    anderson_depth : int
+        Anderson mixing history depth of the plastic fixed point (0: plain sweeps).
 
     Returns
     -------
@@ -270,10 +273,6 @@ def estimate_memory(case) -> MemoryEstimate:
         allocates (module docstring); calibrated against measured peaks, on the high side
         (the GMRES basis of a stalled fixed point is counted).
     """
-    from sacflow.config.schema import Elastic
-
-    grid = body_grid(case)
-    plastic = not isinstance(case.body.hardening, Elastic)
     libraries = MemoryItem(
         "libraries", LIBRARY_BYTES["plastic" if plastic else "elastic"],
         "the interpreter, numpy, scipy, pyfftw, xarray, netCDF4" + (", numba" if plastic else ""),
@@ -287,24 +286,25 @@ def estimate_memory(case) -> MemoryEstimate:
     if plastic:
         eigen_op, eigen_setup = _eigenstrain(grid)
         phases.append([*base, eigen_op, eigen_setup])
-        state, contingent = _solver_state(grid, case)
+        state, contingent = _solver_state(grid, anderson_depth)
         running += [eigen_op, state]
     phases.append(running)
-    items = max(phases, key=lambda phase: sum(item.nbytes for item in phase))
-    items = sorted(items, key=lambda item: item.nbytes, reverse=True)
+    heaviest = max(phases, key=lambda phase: sum(item.nbytes for item in phase))
+    items = sorted(heaviest, key=lambda item: item.nbytes, reverse=True)
     total = sum(item.nbytes for item in items)
     stalled = total if contingent is None else (
         sum(item.nbytes for item in running) + contingent.nbytes)
     return MemoryEstimate(total, tuple(items), grid, max(total, stalled), contingent)
 
 
-def check_memory(case, available: int | None = None) -> MemoryEstimate:
-    """Estimate the memory of ``case`` and refuse it when the machine does not have it.
+def check_memory(grid: BodyGrid, plastic: bool, anderson_depth: int,
+                 available: int | None = None) -> MemoryEstimate:
+    """Estimate the memory of a run and refuse it when the machine does not have it.
 
     Parameters
     ----------
-    case : sacflow.config.schema.Case
-        The validated case.
+    grid, plastic, anderson_depth
+        As for :func:`estimate_memory`.
     available : int, optional
         Bytes available; default :func:`available_memory` now.
 
@@ -319,7 +319,7 @@ def check_memory(case, available: int | None = None) -> MemoryEstimate:
         When the estimate exceeds the available memory; the message gives both, the largest
         items and the fix (fewer cells, a shorter rolled track).
     """
-    estimate = estimate_memory(case)
+    estimate = estimate_memory(grid, plastic, anderson_depth)
     available = available_memory() if available is None else int(available)
     if estimate.total > available:
         raise GridTooLargeError(_too_large(estimate, available))

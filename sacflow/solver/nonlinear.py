@@ -211,7 +211,8 @@ def difference_jacobian(
         if size_v == 0.0:
             return np.zeros(n)
         eps = relative_step * size / size_v
-        return (v - (evaluate(x + eps * v).gx - ev.gx) / eps).ravel()
+        product: np.ndarray = (v - (evaluate(x + eps * v).gx - ev.gx) / eps).ravel()
+        return product
 
     return LinearOperator((n, n), matvec=matvec, dtype=float)
 

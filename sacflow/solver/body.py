@@ -1,0 +1,56 @@
+"""What a simulation carries from one increment to the next.
+
+The body's internal variables and the residual fields they cause (:class:`BodyState`), and the
+contact's memory of the load path (:class:`ContactHistory`): the last contact pressure, the warm
+start of the next contact solve, and the origin of the approach.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["BodyState", "ContactHistory"]
+
+
+@dataclass
+class BodyState:
+    """The body's state on the body grid (n1, n2, nz) after the last converged increment.
+
+    Attributes
+    ----------
+    plastic_strain : ndarray, shape (n1, n2, nz, 6)
+        Plastic strain tensor εp (tensor shears).
+    equivalent_plastic_strain : ndarray, shape (n1, n2, nz)
+        Equivalent plastic strain p.
+    initial_equivalent_plastic_strain : ndarray, shape (n1, n2, nz)
+        p before the first increment (initial hardening, or a stored run's): plastic flow in
+        this run is where p exceeds it.
+    backstress : ndarray, shape (n1, n2, nz, 6), or None
+        Backstress X of kinematic hardening [Pa], None without it.
+    residual_stress : ndarray, shape (n1, n2, nz, 6)
+        Residual stress of εp [Pa] (without the initial stress of the case).
+    residual_displacement : ndarray, shape (n1, n2)
+        Residual normal surface displacement of εp [m].
+    """
+
+    plastic_strain: np.ndarray
+    equivalent_plastic_strain: np.ndarray
+    initial_equivalent_plastic_strain: np.ndarray
+    backstress: np.ndarray | None
+    residual_stress: np.ndarray
+    residual_displacement: np.ndarray
+
+
+@dataclass
+class ContactHistory:
+    """The contact's memory along the load path.
+
+    ``pressure`` is the last contact pressure on the window (the warm start of the next contact
+    solve; None when unloaded) and ``first_contact_offset`` the initial-gap offset of the first
+    contact [m] (the origin of the approach; None before it).
+    """
+
+    pressure: np.ndarray | None = None
+    first_contact_offset: float | None = None

@@ -1,0 +1,199 @@
+"""The plastic strain increment of one increment as a fixed point (seed Fig. 4).
+
+``x = G(x) = Δεp_return(σ(x) + 2μ x)``: ``σ(x)`` the elastic stress for the increment ``x``
+(pressure stress plus residual stress of ``εp_old + x``), the return that of the body's
+hardening (isotropic J2 radial return, or with a backstress). Solved by
+:func:`sacflow.solver.nonlinear.solve_fixed_point`: sweeps accelerated by Anderson mixing and,
+when they stall, semismooth Newton–Krylov with an analytic or a finite-difference Jacobian.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from sacflow.errors import ConvergenceError
+from sacflow.mechanics.return_mapping import ReturnResult, return_map
+from sacflow.mechanics.return_tangent import ReturnTangent
+from sacflow.solver.inputs import Material, SolverSettings
+from sacflow.solver.nonlinear import (
+    Evaluation,
+    FixedPointError,
+    difference_jacobian,
+    solve_fixed_point,
+)
+from sacflow.solver.operators import Operators
+
+if TYPE_CHECKING:
+    from scipy.sparse.linalg import LinearOperator
+
+__all__ = ["FD_STEP", "TINY", "PlasticFixedPoint", "PlasticUpdate", "largest_magnitude"]
+
+#: Smallest scale of a relative residual (guards the division when everything is zero).
+TINY = 1e-300
+#: Relative step of the finite-difference Jacobian of the coupled fixed point
+#: (:meth:`PlasticFixedPoint.solve`): ε = FD_STEP · max|x| / max|v|. Well above the noise of a
+#: contact solve converged to 1e-10 (which then perturbs J v by about 1e-4 of its size, below
+#: the loosest GMRES forcing term used, 1e-1 ... 1e-4 of the residual), well below the plastic
+#: increments' own variation.
+FD_STEP = 1e-6
+
+#: The elastic stress of an increment ``x`` and the residual-stress applications it took.
+StressOf = Callable[[np.ndarray], tuple[np.ndarray, int]]
+
+
+def largest_magnitude(a: np.ndarray) -> float:
+    """``max |a|`` without a box-size temporary (NaN if ``a`` holds one, as ``np.abs(a).max()``)."""
+    return float(np.maximum(a.max(), -a.min()))
+
+
+@dataclass(frozen=True)
+class PlasticUpdate:
+    """A converged plastic fixed point.
+
+    ``plastic_strain`` Δεp and ``equivalent_plastic_strain`` Δp are the increments; the
+    residual-stress ``applications`` it took, its final relative ``residual`` and, with
+    kinematic hardening, the updated ``backstress``.
+    """
+
+    plastic_strain: np.ndarray
+    equivalent_plastic_strain: np.ndarray
+    applications: int
+    residual: float
+    backstress: np.ndarray | None
+
+
+class PlasticFixedPoint:
+    """The plastic fixed point of an increment, for the body's material and operators.
+
+    Parameters
+    ----------
+    operators : Operators
+        The run's operators (the eigenstrain operator of the analytic Jacobian).
+    material : Material
+        Hardening law, kinematic law and shear modulus.
+    settings : SolverSettings
+        Plasticity tolerance, iteration limit and Anderson depth.
+    depth : ndarray
+        Depths of the cuboid layers [m] (depth-dependent laws).
+    """
+
+    def __init__(self, operators: Operators, material: Material, settings: SolverSettings,
+                 depth: np.ndarray) -> None:
+        self.operators = operators
+        self.law = material.law
+        self.kinematic = material.kinematic
+        self.mu = material.shear_modulus
+        self.settings = settings
+        self.depth = depth
+
+    def solve(
+        self, sigma: StressOf, x: np.ndarray, step: int, converged: Callable[[float], bool],
+        what: str, state: tuple[np.ndarray, np.ndarray, np.ndarray | None],
+        coupled: bool = False, pressure_follows: bool | None = None,
+    ) -> PlasticUpdate:
+        """Solve ``x = G(x) = Δεp_return(σ(x) + 2μ x)`` from the start ``x`` (seed Fig. 4).
+
+        ``sigma(x) -> (stress, applications)`` is the elastic stress for the increment ``x``;
+        ``state`` the body's plastic strain, equivalent plastic strain and backstress before the
+        increment; ``converged(res)`` decides on the relative residual
+        ``max|G(x) − x| / max(|G(x)|, |x|, |εp_old|)`` (relative to the increment, or to the
+        plastic strain already there when that is larger: a hold step, or a rolling step far
+        from the load, changes the plastic strain by round-off).
+
+        At a fixed pressure (the nested scheme) the Jacobian is ``I − T (A + 2μ)``, ``T`` the
+        algorithmic tangent of the return and ``A`` the residual-stress operator, applied
+        matrix-free. In the ``coupled`` scheme ``σ(x)`` re-solves the contact, so the pressure
+        depends on ``x`` too; that Jacobian misses it, and where the contact reacts strongly to
+        the residual displacement (large plastic zones) its Newton steps are no descent
+        directions. There the Jacobian is a directional finite difference of ``G`` itself,
+        ``J v = v − (G(x + εv) − G(x)) / ε`` (Jacobian-free Newton–Krylov: Knoll & Keyes,
+        J. Comput. Phys. 193 (2004) 357; ε from :data:`FD_STEP`), at the cost of one
+        evaluation (a residual-stress application and a warm-started contact solve) per
+        product, as the analytic one costs one application. The increment returned is
+        ``Δεp = G(x)`` or, ``coupled``, the converged iterate ``x`` itself (whose residual
+        fields the last evaluation computed). ``pressure_follows`` (default: ``coupled``) says
+        whether the pressure depends on ``x``; when the residual displacement is left out of
+        the gap it does not, and the analytic Jacobian is exact in the coupled scheme too.
+
+        Raises
+        ------
+        ConvergenceError
+            When the fixed point does not converge within the plasticity iteration limit.
+        """
+        from scipy.sparse.linalg import LinearOperator  # plastic runs only
+
+        follows = coupled if pressure_follows is None else pressure_follows
+        plastic_strain, equivalent, backstress = state
+        mu, shape, n = self.mu, x.shape, x.size
+        applications = 0
+        # The plastic strain already there bounds the scale from below: a hold step's increment
+        # is round-off, and measured against itself it never converges.
+        strain_scale = max(float(np.abs(plastic_strain).max()), TINY)
+
+        def evaluate(x: np.ndarray) -> Evaluation:
+            nonlocal applications
+            stress, apps = sigma(x)
+            applications += apps
+            trial = np.multiply(x, 2.0 * mu)  # σ + 2μx: box-size arrays, one temporary
+            trial += stress
+            ret = self._return(trial, equivalent, backstress)
+            gx = ret.plastic_strain_increment
+            scale = max(largest_magnitude(gx), largest_magnitude(x), strain_scale)
+            return Evaluation(gx, largest_magnitude(gx - x) / scale, (trial, ret))
+
+        def jacobian(x: np.ndarray, ev: Evaluation) -> LinearOperator:
+            """``I − T (A + 2μ)``: ``T`` the return's algorithmic tangent, ``A`` residual stress."""
+            if follows:
+                operator: LinearOperator = difference_jacobian(
+                    evaluate, x, ev, FD_STEP, max(float(np.abs(x).max()), strain_scale))
+                return operator
+            trial, ret = ev.data
+            tangent = self._tangent(trial, ret, equivalent, backstress)
+
+            def matvec(v: np.ndarray) -> np.ndarray:
+                nonlocal applications
+                applications += 1
+                v = v.reshape(shape)
+                residual = self.operators.residual_stress(v)
+                product: np.ndarray = (v - tangent.apply(residual + 2.0 * mu * v)).ravel()
+                return product
+
+            return LinearOperator((n, n), matvec=matvec, dtype=float)
+
+        def accept(x: np.ndarray, ev: Evaluation) -> bool:
+            return converged(ev.residual) or (not ev.data[1].plastic.any() and not x.any())
+
+        opts = self.settings
+        try:
+            out = solve_fixed_point(
+                evaluate, x, accept, max_iterations=opts.plasticity_max_iterations,
+                anderson_depth=opts.anderson_depth, jacobian=jacobian,
+                label=f"step {step} {what}",
+            )
+        except FixedPointError as exc:
+            raise ConvergenceError(what, step=step, residual=exc.residual,
+                                   tolerance=opts.plasticity_tolerance,
+                                   iterations=exc.iterations) from None
+        ret = out.evaluation.data[1]
+        dx = out.x if coupled else ret.plastic_strain_increment
+        return PlasticUpdate(dx, ret.equivalent_plastic_strain_increment, applications,
+                             out.evaluation.residual, ret.backstress)
+
+    def _return(self, trial: np.ndarray, equivalent: np.ndarray,
+                backstress: np.ndarray | None) -> ReturnResult:
+        """Return-map the trial stress with the body's law: isotropic, or with the backstress."""
+        if self.kinematic is None:
+            return return_map(trial, equivalent, self.law, self.mu, self.depth,
+                              with_stress=False)  # the increments are what it needs
+        return return_map(trial, equivalent, self.law, self.mu, self.depth,
+                          kinematic=self.kinematic, backstress=backstress)
+
+    def _tangent(self, trial: np.ndarray, ret: ReturnResult, equivalent: np.ndarray,
+                 backstress: np.ndarray | None) -> ReturnTangent:
+        """Return the derivative of the return w.r.t. the trial stress (Newton–Krylov)."""
+        return ReturnTangent(trial, ret, equivalent, self.law, self.mu, self.depth,
+                             kinematic=self.kinematic, backstress=backstress)

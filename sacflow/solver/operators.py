@@ -1,0 +1,139 @@
+"""The linear operators of a run, built once and reused every increment.
+
+* the contact compliance on the contact window (Love's rectangles, DC-FFT:
+  :class:`~sacflow.kernels.convolution.Convolution`);
+* the pressure → stress convolution on the body grid (one operator serves every load position;
+  with friction its kernel adds the shear traction's stress per unit pressure), its spectra
+  kept in the kernel disk cache;
+* for a plastic body, the eigenstrain operator (residual stress and residual surface
+  displacement of the plastic strain, :class:`~sacflow.kernels.eigenstrain.HalfSpaceEigenstrain`).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from sacflow.kernels.convolution import Convolution
+from sacflow.kernels.shear import surface_load_stress_coefficients
+from sacflow.kernels.surface import rectangle_displacement
+from sacflow.solver.layout import layer_centres
+
+if TYPE_CHECKING:
+    from sacflow.kernels.eigenstrain import HalfSpaceEigenstrain
+
+__all__ = ["CONTACT_STRESS_VERSION", "Operators"]
+
+#: Version of the pressure-to-stress kernels in the disk cache: bump it when their code changes.
+CONTACT_STRESS_VERSION = 1
+#: Tensor components of a stress field (one inverse transform of the pressure-stress
+#: operator computes one depth layer's).
+COMPONENTS = 6
+
+
+class Operators:
+    """Kernel spectra for the window and the cuboid box.
+
+    Parameters
+    ----------
+    window : tuple of int
+        Cells of the contact window.
+    body_shape : tuple of int
+        Cells of the body grid (n1, n2).
+    cell : tuple of float
+        Surface cell size [m].
+    nz, dz : int, float
+        Cuboid layers and their thickness [m].
+    E, nu, e_star : float
+        Young's modulus, Poisson's ratio of the body and the contact modulus [Pa].
+    traction : tuple of float or None
+        Shear traction per unit pressure (friction), or None.
+    plastic : bool
+        Whether the eigenstrain operator is needed (elastic runs do without it, and without
+        numba).
+    threads : int or None
+        FFT threads.
+    """
+
+    def __init__(self, window: tuple[int, int], body_shape: tuple[int, int],
+                 cell: tuple[float, float], nz: int, dz: float, E: float, nu: float,
+                 e_star: float, traction: tuple[float, float] | None, plastic: bool,
+                 threads: int | None) -> None:
+        self.body_shape = body_shape
+        self.cell = cell
+        self.nz, self.dz, self.nu = nz, dz, nu
+        self.traction = traction
+        dx1, dx2 = cell
+        h1, h2 = dx1 / 2, dx2 / 2
+
+        def love(d1: np.ndarray, d2: np.ndarray) -> np.ndarray:
+            unit: np.ndarray = rectangle_displacement(d1 * dx1, d2 * dx2, h1, h2)
+            return (unit / (np.pi * e_star))[None, None]
+
+        self.compliance = Convolution(love, window, window, threads=threads)
+        z = layer_centres(nz, dz)
+        stresses = surface_load_stress_coefficients(cell, z, nu, traction)
+        # Pressure (embedded in the body grid at the window's place) -> stress on the body grid:
+        # one operator serves every load position. With a shear traction q = μ p d its kernel
+        # adds the traction's stress per unit pressure: the same one convolution.
+        self.pressure_stress_op = Convolution(
+            stresses, body_shape, body_shape, threads=threads,
+            block=COMPONENTS,  # one depth layer (six components) per inverse transform
+            cache=("contact_stress", self.contact_stress_parameters()),
+        )
+        self.eigen: HalfSpaceEigenstrain | None = None
+        if plastic:
+            from sacflow.kernels.eigenstrain import HalfSpaceEigenstrain
+
+            self.eigen = HalfSpaceEigenstrain(
+                (*body_shape, nz), (dx1, dx2, dz), E, nu, threads=threads,
+            )
+
+    def contact_stress_parameters(self) -> dict[str, Any]:
+        """Everything the pressure-to-stress kernels depend on (their disk-cache key).
+
+        Love's rectangles at the layer centres (cells, layer thickness, layers, ν) and, with
+        friction, the traction per unit pressure; ``shape`` (body grid and layers) is what
+        ``sacflow cache`` lists; the operator adds its own grid shapes.
+        """
+        traction = self.traction
+        return {
+            "version": CONTACT_STRESS_VERSION, "shape": [*self.body_shape, int(self.nz)],
+            "cell": [float(c) for c in self.cell],
+            "dz": float(self.dz), "nz": int(self.nz), "nu": float(self.nu),
+            "traction": None if traction is None else [float(t) for t in traction],
+        }
+
+    @property
+    def eigenstrain(self) -> HalfSpaceEigenstrain:
+        """The eigenstrain operator (plastic bodies only)."""
+        if self.eigen is None:
+            raise RuntimeError("an elastic body has no eigenstrain operator")
+        return self.eigen
+
+    def pressure_stress(self, pressure: np.ndarray, window: tuple[slice, slice]) -> np.ndarray:
+        """Stress [Pa] on the body grid, (n1, n2, nz, 6), of the window pressure at ``window``."""
+        embedded = np.zeros(self.body_shape)
+        embedded[window] = pressure
+        return self.body_pressure_stress(embedded)
+
+    def body_pressure_stress(self, pressure: np.ndarray) -> np.ndarray:
+        """Stress [Pa] (n1, n2, nz, 6) of a pressure given on the whole body grid."""
+        out: np.ndarray = self.pressure_stress_op(pressure[None])  # (6 nz, n1, n2)
+        out = out.reshape(self.nz, COMPONENTS, *self.body_shape)
+        return np.moveaxis(out, (0, 1), (2, 3))
+
+    def residual_stress(self, plastic_strain: np.ndarray) -> np.ndarray:
+        """Residual stress [Pa] (n1, n2, nz, 6) of the plastic strain."""
+        stress: np.ndarray = self.eigenstrain.residual_stress(plastic_strain)
+        return stress
+
+    def residual_fields(self, plastic_strain: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Residual stress [Pa] and residual surface displacement [m] of the plastic strain.
+
+        The two share one forward transform.
+        """
+        stress, displacement = self.eigenstrain.residual_stress(plastic_strain,
+                                                                with_displacement=True)
+        return stress, displacement
