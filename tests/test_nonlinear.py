@@ -11,8 +11,8 @@ from sacflow.solver.nonlinear import (
     Evaluation,
     FixedPointError,
     NewtonSettings,
-    _newton_step,
     difference_jacobian,
+    newton_step,
     solve_fixed_point,
 )
 
@@ -176,7 +176,7 @@ def test_the_line_search_merit_is_the_euclidean_norm():
         return LinearOperator((2, 2), matvec=lambda v: 1.0 * v, dtype=float)
 
     x0 = np.zeros(2)
-    x, ev = _newton_step(evaluate, jacobian, x0, evaluate(x0), NewtonSettings(), "test")
+    x, ev = newton_step(evaluate, jacobian, x0, evaluate(x0), NewtonSettings(), "test")
     assert_allclose(x, [1.0, 1.0], rtol=0, atol=1e-12)
     assert ev.residual == pytest.approx(1.2)
 

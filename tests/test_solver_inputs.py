@@ -24,7 +24,8 @@ def test_the_inputs_are_the_case_s_numbers():
     inputs = solver_inputs(case)
     material, contact, grid = inputs.material, inputs.contact, inputs.grid
     assert (material.E, material.nu) == (case.body.E, case.body.nu)
-    assert isinstance(material.law, SwiftHardening) and material.plastic and material.kinematic is None
+    assert isinstance(material.law, SwiftHardening) and material.plastic
+    assert material.kinematic is None
     assert contact.e_star == case.contact_modulus() and contact.radii == case.effective_radii()
     assert contact.hertz == case.hertz()
     assert contact.friction and contact.traction == (0.2, 0.0)

@@ -36,6 +36,7 @@ __all__ = [
     "FixedPointError",
     "FixedPointResult",
     "NewtonSettings",
+    "newton_step",
     "solve_fixed_point",
 ]
 
@@ -171,7 +172,7 @@ def solve_fixed_point(
             newton = newton or stalled > settings.stall_sweeps
         previous = ev.residual
         if newton and jacobian is not None:
-            x_new, ev_new = _newton_step(evaluate, jacobian, x, ev, settings, label)
+            x_new, ev_new = newton_step(evaluate, jacobian, x, ev, settings, label)
             newton_steps += 1
             if _merit(x_new, ev_new) < _merit(x, ev):
                 x, ev = x_new, ev_new
@@ -222,7 +223,7 @@ def _merit(x: np.ndarray, ev: Evaluation) -> float:
     return float(np.linalg.norm(ev.gx - x))
 
 
-def _newton_step(
+def newton_step(
     evaluate: Evaluate,
     jacobian: Jacobian,
     x: np.ndarray,
