@@ -74,3 +74,29 @@ def test_sparse_vectors_with_a_growing_support_mix_as_dense_ones():
         assert_allclose(out, expected, rtol=1e-9, atol=1e-9)
         assert not out[20 + 30 * k:].any()  # nothing where no vector ever was nonzero
     assert mixer._support.size < n
+
+
+def test_a_support_growing_before_and_between_its_entries_mixes_as_dense_vectors():
+    """New nonzeros land before, between and after the kept ones (a plastic zone spreading in
+    every direction of the flattened box): the widened history stays aligned with its entries,
+    and after a reset the support starts again from the new vectors."""
+    rng = np.random.default_rng(11)
+    depth, n = 4, 300
+    mixer = AndersonMixer(depth, mixing=0.9)
+    for _ in range(2):  # the second round after a reset
+        xs, fs, ever = [], [], np.zeros(n, dtype=bool)
+        for k in range(9):
+            x, gx = np.zeros(n), np.zeros(n)
+            live = rng.choice(np.arange(n - 30 * (k + 1), n, 3), size=8, replace=False)
+            x[live] = rng.standard_normal(live.size)
+            gx[rng.choice(n, size=4, replace=False)] = rng.standard_normal(4)
+            ever |= (x != 0) | (gx != 0)
+            out = mixer.step(x, gx)
+            xs.append(x)
+            fs.append(gx - x)
+            keep = min(k, depth) + 1
+            expected = (x + 0.9 * (gx - x) if k == 0
+                        else reference_step(xs[-keep:], fs[-keep:], 0.9))
+            assert_allclose(out, expected, rtol=1e-9, atol=1e-9)
+            assert not out[~ever].any()
+        mixer.reset()

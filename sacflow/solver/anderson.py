@@ -44,6 +44,7 @@ class AndersonMixer:
         self._last_x: np.ndarray | None = None
         self._last_f: np.ndarray | None = None
         self._support = np.zeros(0, dtype=np.intp)  # sorted indices of the kept entries
+        self._kept: np.ndarray | None = None  # the support as a mask over the full vector
 
     def reset(self) -> None:
         """Forget the history (e.g. after the problem changed)."""
@@ -52,14 +53,27 @@ class AndersonMixer:
         self._gram = np.zeros((0, 0))
         self._last_x = self._last_f = None
         self._support = np.zeros(0, dtype=np.intp)
+        self._kept = None
 
     def _grow_support(self, x: np.ndarray, gx: np.ndarray) -> None:
-        """Add the nonzero entries of ``x`` and ``G(x)``; widen the stored vectors with zeros."""
-        nonzero = np.flatnonzero((x != 0.0) | (gx != 0.0))
-        if np.isin(nonzero, self._support, assume_unique=True).all():
+        """Add the nonzero entries of ``x`` and ``G(x)``; widen the stored vectors with zeros.
+
+        The support is kept as a mask over the full vector too: the union and the old entries'
+        places in it are a mask operation and two scans, linear in the vector's length (sorting
+        or hashing the indices, as a set union does, costs far more on a large plastic zone).
+        """
+        kept = self._kept
+        if kept is None:
+            kept = self._kept = np.zeros(x.size, dtype=bool)
+        new = x != 0.0
+        new |= gx != 0.0
+        new &= ~kept
+        if not new.any():
             return
-        support = np.union1d(self._support, nonzero)
-        where = np.searchsorted(support, self._support)
+        new |= kept
+        support = np.flatnonzero(new)  # sorted: the union of the old support and the nonzeros
+        where = np.flatnonzero(kept[support])  # places of the old entries in the new support
+        self._kept = new
 
         def widened(v: np.ndarray) -> np.ndarray:
             out = np.zeros(support.size)
