@@ -200,7 +200,8 @@ def plot_melan(result: xr.Dataset) -> Figure:
         left.plot(x3, result["residual_stress"].sel(component=comp).values[centre] / 1e6,
                   label=f"ρ{comp}")
     left.set(xlabel="depth x3 / a", ylabel="residual stress [MPa] on the track centre",
-             title=f"λ = {float(result['load_factor']):.3f}: {result.attrs['verdict']}")
+             title=f"λ = {float(result['load_factor']):.3f} (ceiling "
+             f"{float(result['ceiling_factor']):.3f}): {result.attrs['verdict']}")
     left.legend()
     left.grid(True, alpha=0.3)
     envelope = result["envelope"].values

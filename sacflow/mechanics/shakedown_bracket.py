@@ -47,7 +47,7 @@ __all__ = ["CERTIFICATE", "ShakedownBracket", "certify", "rolling_bracket"]
 #: ``reach`` (in a) along the track, across it and in depth; refinement ``levels``; cells are
 #: refined while their bound exceeds the sampled maximum by more than ``tolerance``.
 CERTIFICATE: dict[str, float] = {"cells_per_knot": 2, "track": 4.0, "growth": 1.5,
-                                 "reach": 40.0, "levels": 9, "tolerance": 2e-3}
+                                 "reach": 40.0, "levels": 10, "tolerance": 5e-4}
 
 
 @dataclass(frozen=True)

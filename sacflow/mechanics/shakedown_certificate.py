@@ -23,13 +23,17 @@ the bounds of σ̂ and ρ add). For ρ they are **proved**: within a knot cell e
 a polynomial bounded by its B-spline coefficients
 (:meth:`~sacflow.mechanics.steady_residual.SteadyResidualField.derivative_bounds`), and the von
 Mises stress of a tensor with bounded components is maximised at a corner of the box of
-components. For the elastic field they are the largest over the cell's corners of the closed
-form's derivatives (central differences): σ̂ is smooth below the surface, and what the corners
-miss of its derivatives enters the bound at third order in the cell size. This is the one part
-that is an estimate, not a proof; at the surface, on the contact's edge, the Hertz field's
-derivatives are unbounded, and the cells there are refined until their bound passes or the
-refinement stops (their bound then enters M as it is). Cells whose bound exceeds the target are
-split in two along each axis, level by level (adaptive refinement).
+components. For the elastic field they are the largest of the closed form's derivatives
+(differences of step :data:`DIFFERENCE_STEP`) at eight points inside the cell
+(:data:`DERIVATIVE_POINTS`): σ̂ is smooth below the surface, and what these points miss of its
+derivatives enters the bound at third order in the cell size. **This is the one part that is an
+estimate, not a proof** (a proof would need bounds of the Hertz fields' derivatives over each
+cell, e.g. by interval arithmetic on the closed forms). At the surface, on the contact's edge,
+the Hertz field's derivatives are unbounded (the pressure's slope is); there the bound falls
+like √h as the cells shrink, and the refinement reaches it because g there is well below the
+maximum. Cells whose bound exceeds the target (and the largest g found so far, by more than a
+tolerance: no bound can be lower than a value g takes) are split in two along each axis, level
+by level; the cells still above it after the last level enter M with their bound.
 
 **Outside that box** a point lies at a distance R ≥ R_c = min(T, W', D') from the contact's
 centre. The elastic stress is the superposition of point (line) loads over the contact, and the
@@ -68,6 +72,8 @@ DIFFERENCE_STEP = 1e-4
 #: Corners are moved this fraction of the cell into it, so that a field that jumps on a cell's
 #: face is read from the cell's side; the sliver left out is added to the bound.
 CORNER_NUDGE = 1e-9
+#: Cells bounded at once (bounds the memory of the field evaluations).
+CELL_CHUNK = 8192
 #: The elastic field's derivatives are estimated at the 8 points of the cell at these fractions
 #: of its sides (inside it: at the contact's edge on the surface, where they are unbounded,
 #: a cell corner may sit on the edge).
@@ -248,7 +254,10 @@ def certified_maximum(elastic: ElasticField | None, field: SteadyResidualField,
     hi = np.stack([grids[k][index[:, k], 1] for k in range(3)], axis=1)
     best, sampled, checked = 0.0, 0.0, 0
     for level in range(levels + 1):
-        bound, top = _cell_bounds(elastic, field, coefficients, lo, hi)
+        parts = [_cell_bounds(elastic, field, coefficients, lo[i:i + CELL_CHUNK],
+                              hi[i:i + CELL_CHUNK]) for i in range(0, lo.shape[0], CELL_CHUNK)]
+        bound = np.concatenate([p[0] for p in parts])
+        top = np.concatenate([p[1] for p in parts])
         checked += lo.shape[0]
         sampled = max(sampled, float(top.max()))
         # no bound can fall below a value g takes: refining below that is wasted
