@@ -144,7 +144,7 @@ def plot(rows: list[dict[str, Any]], results: list[MelanBound], path: Path) -> N
         right.invert_yaxis()
         fig.colorbar(mesh, ax=right, label="max over load positions of σ_vM / σ_Y")
         right.set(xlabel="x2 / a (across the track)", ylabel="depth x3 / a",
-                  title=f"Safe state at p0 = {row['melan_at_samples_p0_over_k']:.2f} k "
+                  title=f"At the samples, p0 = {row['melan_at_samples_p0_over_k']:.2f} k "
                   "(white: within 1 % of yield)")
     fig.savefig(path, dpi=120, format="png")
 

@@ -446,3 +446,20 @@ def test_point_contact_bracket_holds_the_kinematic_limit():
     b = rolling_bracket("point", kind="full", ceiling_step=1 / 24)
     assert 4.62 < SQRT3 * b.lower <= SQRT3 * b.ceiling < 4.70
     assert SQRT3 * b.ceiling >= 4.67
+
+
+def test_kinematic_ceiling_takes_an_exact_minimum_ball():
+    """The ball routine is a parameter: an exact one (here ``miniball``) gives the same
+    ceiling as the certified dual bounds."""
+    miniball = pytest.importorskip("miniball")
+    from sacflow.mechanics.shakedown import rolling_samples
+    from sacflow.mechanics.shakedown_ceiling import kinematic_ceiling
+
+    def exact(points, iterations):
+        r = np.sqrt([miniball.get_bounding_ball(p)[1] for p in points])
+        return r, r
+
+    elastic, _, _ = rolling_samples("line", 0.3, 3.0, 2.0, 1 / 6, 3.0)
+    ours, theirs = kinematic_ceiling(elastic), kinematic_ceiling(elastic, exact)
+    assert_allclose(ours.load_factor, theirs.load_factor, rtol=1e-6)
+    assert ours.load_factor >= theirs.load_factor * (1 - 1e-12)

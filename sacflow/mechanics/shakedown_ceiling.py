@@ -31,6 +31,7 @@ run on every point at once.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -38,6 +39,9 @@ from numpy.typing import NDArray
 
 __all__ = ["KinematicCeiling", "ball_radius_bounds", "deviatoric_path", "kinematic_ceiling"]
 
+#: (point sets (m, n, d), iterations) → (lower, upper) radii of their smallest balls.
+BallBounds = Callable[[NDArray[np.float64], int],
+                      tuple[NDArray[np.float64], NDArray[np.float64]]]
 #: Frank–Wolfe iterations on every point (a first screening).
 SCREEN_ITERATIONS = 60
 #: Frank–Wolfe iterations on the points that may hold the largest radius.
@@ -134,7 +138,8 @@ class KinematicCeiling:
     point: tuple[int, ...]
 
 
-def kinematic_ceiling(elastic: NDArray[np.float64]) -> KinematicCeiling:
+def kinematic_ceiling(elastic: NDArray[np.float64],
+                      ball: BallBounds = ball_radius_bounds) -> KinematicCeiling:
     """Kinematic-hardening ceiling of a sampled load domain (module docstring).
 
     Parameters
@@ -142,6 +147,10 @@ def kinematic_ceiling(elastic: NDArray[np.float64]) -> KinematicCeiling:
     elastic : ndarray, shape (n_loads, *points, 6)
         Elastic stress per unit load at each point for each load of the domain; the
         unloaded state is added here.
+    ball : callable
+        ``ball(points, iterations)`` → (lower, upper) radii of the smallest balls of
+        (m, n, d) point sets, lower certified (:func:`ball_radius_bounds`); an exact
+        minimum-ball routine may be passed, returning its radius as both.
 
     Returns
     -------
@@ -155,11 +164,11 @@ def kinematic_ceiling(elastic: NDArray[np.float64]) -> KinematicCeiling:
     upper = np.empty(path.shape[0])
     for start in range(0, path.shape[0], CHUNK):
         chunk = slice(start, start + CHUNK)
-        lower[chunk], upper[chunk] = ball_radius_bounds(path[chunk], SCREEN_ITERATIONS)
+        lower[chunk], upper[chunk] = ball(path[chunk], SCREEN_ITERATIONS)
     keep = np.nonzero(upper >= lower.max())[0]  # only these can hold the largest radius
     for start in range(0, keep.size, CHUNK):
         part = keep[start:start + CHUNK]
-        fine_lower, fine_upper = ball_radius_bounds(path[part], FINAL_ITERATIONS)
+        fine_lower, fine_upper = ball(path[part], FINAL_ITERATIONS)
         lower[part] = np.maximum(lower[part], fine_lower)
         upper[part] = np.minimum(upper[part], fine_upper)
     best = int(np.argmax(lower))
