@@ -86,13 +86,12 @@ def ball_radius_bounds(points: NDArray[np.float64], iterations: int = FINAL_ITER
     p = np.asarray(points, dtype=float)
     m, n, _ = p.shape
     w = np.full((m, n), 1.0 / n)
-    norms = np.einsum("mnd,mnd->mn", p, p)
     rows = np.arange(m)
     for _ in range(iterations):
         c = np.einsum("mn,mnd->md", w, p)
-        dual = np.maximum(np.einsum("mn,mn->m", w, norms)
-                          - np.einsum("md,md->m", c, c), 0.0)
         dist = np.einsum("mnd,mnd->mn", p - c[:, None], p - c[:, None])
+        # Σ w|p|² − |c|², written as the weighted variance about c (no cancellation)
+        dual = np.einsum("mn,mn->m", w, dist)
         far = dist.argmax(axis=1)
         near = np.where(w > 0, dist, np.inf).argmin(axis=1)
         d_far, d_near = dist[rows, far], dist[rows, near]
@@ -111,9 +110,8 @@ def ball_radius_bounds(points: NDArray[np.float64], iterations: int = FINAL_ITER
         np.clip(w, 0.0, None, out=w)
         w /= w.sum(axis=1, keepdims=True)
     c = np.einsum("mn,mnd->md", w, p)
-    dual = np.maximum(np.einsum("mn,mn->m", w, norms) - np.einsum("md,md->m", c, c), 0.0)
-    upper = np.sqrt(np.einsum("mnd,mnd->mn", p - c[:, None], p - c[:, None]).max(axis=1))
-    return np.sqrt(dual), upper
+    dist = np.einsum("mnd,mnd->mn", p - c[:, None], p - c[:, None])
+    return np.sqrt(np.einsum("mn,mn->m", w, dist)), np.sqrt(dist.max(axis=1))
 
 
 @dataclass(frozen=True)
