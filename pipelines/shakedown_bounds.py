@@ -1,20 +1,26 @@
-"""Shakedown limits of free rolling from Melan's static theorem, for the incremental runs to meet.
+"""Shakedown limits of free rolling, bracketed: certified Melan floor, kinematic ceiling.
 
     python pipelines/shakedown_bounds.py [--out DIR] [--quick]
 
-Prints one JSON line per contact and residual field class (``sacflow.mechanics.shakedown``): the
-first-yield
-peak pressure and the largest peak pressure that a steady self-equilibrated residual stress
-proves safe, both in units of k = σ_Y/√3 (von Mises), ν = 0.3, with the settings used:
+Prints one JSON line per contact and residual field class
+(``sacflow.mechanics.shakedown_bracket.rolling_bracket``), all peak pressures in units of
+k = σ_Y/√3 (von Mises), ν = 0.3, with the settings used:
 
-* line contact, ρ11(x3), ρ22(x3): the classical case, whose answer is 4.0 k;
-* point contact, ρ11(x3), ρ22(x3): the depth-only field;
-* point contact, the whole steady class (three stress functions on a box of ±3 a × 3 a).
+* ``first_yield_p0_over_k``: first yield;
+* ``melan_at_samples_p0_over_k``: the optimiser's Melan factor with yield checked at its
+  samples only (not a bound);
+* ``lower_p0_over_k``: the certified lower bound (yield checked everywhere between the samples
+  and beyond the box: ``sacflow.mechanics.shakedown_certificate``);
+* ``ceiling_p0_over_k``: the kinematic-hardening ceiling, an upper bound of the perfectly
+  plastic shakedown limit (``sacflow.mechanics.shakedown_ceiling``);
+* ``gap``: ceiling / lower − 1.
 
-With ``--out`` it also writes ``shakedown_bounds.json`` and ``shakedown_bounds.png`` (the
-point contact's residual stresses on the axis, and where the von Mises stress of the safe
-state is highest). ``--quick`` uses coarse samples and knots (seconds; the tests run it).
-The whole class takes minutes at the default settings.
+Cases: line contact, ρ11(x3), ρ22(x3) (the classical case, answer 4.0 k); point contact with
+the depth-only field; point contact with the whole steady class (three stress functions on a
+box of ±3 a × 3 a). With ``--out`` it also writes ``shakedown_bounds.json`` and
+``shakedown_bounds.png`` (the point contact's residual stresses on the axis, and where the von
+Mises stress of the safe state is highest). ``--quick`` uses coarse samples and knots (the
+tests run it). The whole class takes minutes at the default settings.
 """
 
 from __future__ import annotations
@@ -30,20 +36,22 @@ from typing import Any
 import numpy as np
 
 from sacflow.errors import SacflowError
-from sacflow.mechanics.shakedown import MelanBound, rolling_shakedown_bound
+from sacflow.mechanics.shakedown import MelanBound
+from sacflow.mechanics.shakedown_bracket import rolling_bracket
 from sacflow.storage.output_dir import check_output_dir
 
 SQRT3 = float(np.sqrt(3.0))
 #: (contact, class, settings) of the report; lengths in contact radii (half-widths).
 CASES: list[tuple[str, str, dict[str, float]]] = [
-    ("line", "depth", {"depth": 2.0, "sample_step": 1 / 48, "knot_step": 1 / 16}),
+    ("line", "depth", {"depth": 2.0, "sample_step": 1 / 48, "knot_step": 1 / 16,
+                       "ceiling_step": 1 / 96}),
     ("point", "depth", {"half_width": 1.5, "depth": 2.0, "sample_step": 1 / 24,
-                        "knot_step": 1 / 8}),
+                        "knot_step": 1 / 8, "ceiling_step": 1 / 48}),
     ("point", "full", {"half_width": 3.0, "depth": 3.0, "sample_step": 1 / 12,
-                       "knot_step": 1 / 4}),
+                       "knot_step": 1 / 4, "ceiling_step": 1 / 24}),
 ]
 #: Coarser settings of ``--quick`` (and a smaller box for the whole class).
-QUICK: dict[str, float] = {"sample_step": 1 / 6, "knot_step": 1 / 2}
+QUICK: dict[str, float] = {"sample_step": 1 / 6, "knot_step": 1 / 2, "ceiling_step": 1 / 6}
 QUICK_BOX: dict[str, float] = {"half_width": 1.5, "depth": 1.5}
 
 
@@ -62,11 +70,23 @@ def main(argv: list[str] | None = None) -> int:
         if args.quick:
             settings = {**settings, **QUICK, **(QUICK_BOX if kind == "full" else {})}
         start = time.perf_counter()
-        bound = rolling_shakedown_bound(contact, 0.3, kind=kind, **settings)  # type: ignore[arg-type]
+        bracket = rolling_bracket(contact, 0.3, kind=kind, **settings)  # type: ignore[arg-type]
+        bound = bracket.melan
         row: dict[str, Any] = {
             "contact": contact, "residual_class": kind, **settings,
             "first_yield_p0_over_k": SQRT3 * bound.elastic_limit,
-            "shakedown_p0_over_k_at_least": SQRT3 * bound.load_factor,
+            "melan_at_samples_p0_over_k": SQRT3 * bracket.sampled,
+            "lower_p0_over_k": SQRT3 * bracket.lower,
+            "ceiling_p0_over_k": SQRT3 * bracket.ceiling,
+            "gap": bracket.gap,
+            "certificate": {
+                "margin": bracket.margin, "cells": bracket.inside.cells,
+                "unresolved_cells": bracket.inside.unresolved,
+                "at_cell_corners_p0_over_k": SQRT3 / bracket.inside.sampled,
+                "bound_inside": bracket.inside.bound, "bound_outside": bracket.outside,
+                "residual_alone": bracket.residual_alone.bound,
+            },
+            "ceiling_radius_exact_to": bracket.ceiling / bracket.ceiling_low - 1.0,
             "stages": [[s, n, SQRT3 * f] for s, n, f in bound.stages],
             "seconds": time.perf_counter() - start,
         }
@@ -109,7 +129,7 @@ def plot(rows: list[dict[str, Any]], results: list[MelanBound], path: Path) -> N
                 continue
             left.plot(x3, SQRT3 * bound.load_factor * bound.residual[centre, :, comp],
                       label=f"{name}, {row['residual_class']} "
-                      f"({row['shakedown_p0_over_k_at_least']:.3f} k)")
+                      f"({row['lower_p0_over_k']:.3f} k certified)")
         if row["residual_class"] == "full":
             full = (row, bound)
     left.set(xlabel="depth x3 / a", ylabel="residual stress / k, on the axis x2 = 0",
@@ -124,7 +144,7 @@ def plot(rows: list[dict[str, Any]], results: list[MelanBound], path: Path) -> N
         right.invert_yaxis()
         fig.colorbar(mesh, ax=right, label="max over load positions of σ_vM / σ_Y")
         right.set(xlabel="x2 / a (across the track)", ylabel="depth x3 / a",
-                  title=f"Safe state at p0 = {row['shakedown_p0_over_k_at_least']:.2f} k "
+                  title=f"At the samples, p0 = {row['melan_at_samples_p0_over_k']:.2f} k "
                   "(white: within 1 % of yield)")
     fig.savefig(path, dpi=120, format="png")
 

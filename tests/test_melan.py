@@ -17,7 +17,8 @@ from numpy.testing import assert_allclose
 from scipy.integrate import quad
 
 from sacflow.mechanics.hertz import line_contact_stress
-from sacflow.mechanics.shakedown import SteadyResidualField, melan_bound, rolling_shakedown_bound
+from sacflow.mechanics.shakedown import SHARPNESS_STAGES, melan_bound, rolling_shakedown_bound
+from sacflow.mechanics.steady_residual import SteadyResidualField
 from sacflow.mechanics.stress_measures import von_mises
 
 SQRT3 = np.sqrt(3.0)
@@ -152,7 +153,8 @@ def test_line_contact_limit_is_four_k_and_never_above_its_ceiling():
 
 
 def test_bound_is_the_largest_von_mises_stress_of_its_own_field():
-    """The load factor is re-derived from the returned field, the unloaded state included."""
+    """The load factor is re-derived from the returned field, the unloaded state included
+    (one sharpness stage: the check is of consistency, not of the optimum)."""
     x1 = np.linspace(-2.5, 2.5, 41)
     x2 = np.linspace(-1.5, 1.5, 25)
     x3 = np.linspace(0.05, 1.5, 24)
@@ -160,7 +162,7 @@ def test_bound_is_the_largest_von_mises_stress_of_its_own_field():
 
     elastic = hertz_subsurface_stress(*np.meshgrid(x1, x2, x3, indexing="ij"), 1.0, 1.0, 0.3)
     field = SteadyResidualField(x2, x3, 1.5, 1.5, (6, 4), "full")
-    bound = melan_bound(elastic, field)
+    bound = melan_bound(elastic, field, stages=SHARPNESS_STAGES[:1])
     loaded = von_mises(elastic + bound.residual[None]).max()
     unloaded = von_mises(bound.residual).max()
     assert_allclose(bound.load_factor, 1.0 / max(loaded, unloaded), rtol=1e-12)
@@ -229,9 +231,14 @@ def test_melan_stage_on_a_repeated_rolling_run(tmp_path, capsys):
                  and case.load_path[s.segment].kind == "roll" and s.load == case.max_load]
     result = melan(path)
     assert int(result["step"]) == last_pass[len(last_pass) // 2]
-    factor = float(result["load_factor"])
+    factor, ceiling = float(result["load_factor"]), float(result["ceiling_factor"])
     assert float(result["first_yield_factor"]) < factor
-    assert result.attrs["verdict"] == ("shakes down" if factor >= 1 else "not proven safe")
+    # the ceiling on the same samples bounds every factor Melan proves on them
+    assert factor <= ceiling * (1 + 1e-12)
+    assert_allclose(float(result["gap"]), ceiling / factor - 1, rtol=1e-14)
+    expected = ("shakes down" if factor >= 1 else "does not shake down" if ceiling < 1
+                else "not proven safe")
+    assert result.attrs["verdict"] == expected
     with xr.open_dataset(path) as ds:
         peak = float(ds["pressure"].sel(step=int(result["step"])).max())
     assert_allclose(float(result["peak_pressure"]), peak, rtol=1e-14)
@@ -257,10 +264,11 @@ def test_melan_stage_refuses_what_it_does_not_cover():
                               ["load_path.1.direction=[0.0, 1.0]"]))
 
 
+@pytest.mark.slow
 def test_shakedown_bounds_pipeline_quick(tmp_path, capsys):
-    """``pipelines/shakedown_bounds.py --quick``: three JSON lines, the files, the line
-    contact near 4.0 k even at the coarse settings (a lower bound at the samples: never far
-    below, and above only by what the samples miss of the peak)."""
+    """``pipelines/shakedown_bounds.py --quick``: three JSON lines, the files, each bracket
+    ordered (first yield < certified lower bound ≤ ceiling), the line contact's around 4.0 k
+    even at the coarse settings."""
     import json
     import sys
 
@@ -273,8 +281,196 @@ def test_shakedown_bounds_pipeline_quick(tmp_path, capsys):
     rows = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
     assert [(r["contact"], r["residual_class"]) for r in rows] == [
         ("line", "depth"), ("point", "depth"), ("point", "full")]
-    assert_allclose(rows[0]["shakedown_p0_over_k_at_least"], 4.0, rtol=0.02)
-    for row in rows[1:]:
-        assert row["first_yield_p0_over_k"] < row["shakedown_p0_over_k_at_least"]
+    assert rows[0]["lower_p0_over_k"] <= 4.0 <= rows[0]["ceiling_p0_over_k"]
+    assert_allclose(rows[0]["lower_p0_over_k"], 4.0, rtol=0.02)
+    for row in rows:
+        assert row["first_yield_p0_over_k"] < row["lower_p0_over_k"] <= row["ceiling_p0_over_k"]
+        assert_allclose(row["gap"], row["ceiling_p0_over_k"] / row["lower_p0_over_k"] - 1,
+                        rtol=1e-12)
     assert (tmp_path / "shakedown_bounds.json").is_file()
     assert (tmp_path / "shakedown_bounds.png").is_file()
+
+
+# --- the certified bracket: residual-field bounds, far field, balls, certificate, ceiling ---
+
+def test_residual_field_derivative_bounds_hold_inside_every_knot_cell():
+    """|∂ρ| from the B-spline coefficients bounds the field's own derivatives (differences of
+    step 1e-4 at random points away from the knots), inside and beyond the box, and is tight
+    (reached to within 20 % somewhere: the convex hull bound is nearly attained)."""
+    from sacflow.mechanics.steady_residual import DERIVATIVES
+
+    rng = np.random.default_rng(1)
+    knots_y, knots_z = np.linspace(-1.5, 1.5, 7), np.linspace(0.0, 1.2, 5)
+    h = 1e-4
+    for kind in ("full", "depth"):
+        field = SteadyResidualField(np.zeros(1), np.zeros(1), 1.5, 1.2, (6, 4), kind)
+        c = rng.standard_normal(field.size)
+        y, z = rng.uniform(-1.99, 1.99, 20000), rng.uniform(0.001, 1.59, 20000)
+        away = ((np.abs(y[:, None] - knots_y).min(axis=1) > 3 * h)
+                & (np.abs(z[:, None] - knots_z).min(axis=1) > 3 * h))
+        y, z = y[away], z[away]
+
+        def rho(dy, dz, y=y, z=z, field=field, c=c):
+            return field.stress_at(c, y + dy, z + dz)
+
+        values = {(0, 0): rho(0, 0), (1, 0): (rho(h, 0) - rho(-h, 0)) / (2 * h),
+                  (2, 0): (rho(h, 0) - 2 * rho(0, 0) + rho(-h, 0)) / h ** 2,
+                  (0, 1): (rho(0, h) - rho(0, -h)) / (2 * h),
+                  (0, 2): (rho(0, h) - 2 * rho(0, 0) + rho(0, -h)) / h ** 2}
+        bounds = field.derivative_bounds(c, y, z)
+        for k, orders in enumerate(DERIVATIVES):
+            slack = 1e-5 * (1 + bounds[:, k])
+            assert np.all(np.abs(values[orders]) <= bounds[:, k] + slack), (kind, orders)
+        assert np.max(np.abs(values[(0, 0)]) / np.maximum(bounds[:, 0], 1e-300)) > 0.8
+
+
+def test_scattered_residual_field_is_the_sampled_one():
+    field, x2, x3 = _field()
+    c = np.random.default_rng(2).standard_normal(field.size)
+    X2, X3 = np.meshgrid(x2, x3, indexing="ij")
+    assert_allclose(field.stress_at(c, X2.ravel(), X3.ravel()).reshape(*X2.shape, 6),
+                    field.stress(c), rtol=0, atol=1e-12)
+
+
+def test_von_mises_of_bounds_is_the_largest_over_the_box():
+    from sacflow.mechanics.shakedown_certificate import von_mises_of_bounds
+
+    rng = np.random.default_rng(4)
+    b = rng.uniform(0.0, 2.0, (200, 6))
+    signs = rng.choice([-1.0, 1.0], (200, 6))
+    inside = von_mises(b * rng.uniform(-1, 1, (200, 6)))
+    corner = von_mises(b * signs)
+    bound = von_mises_of_bounds(b)
+    assert np.all(inside <= bound + 1e-12) and np.all(corner <= bound + 1e-12)
+    best = np.max([von_mises(b * np.array(s + (1, 1, 1))) for s in
+                   [(1, 1, 1), (1, 1, -1), (1, -1, 1), (-1, 1, 1)]], axis=0)
+    assert_allclose(bound, best, rtol=1e-14)
+
+
+@pytest.mark.parametrize("nu", [0.0, 0.25, 0.3, 0.5])
+def test_boussinesq_von_mises_peaks_on_the_axis(nu):
+    """The far-field constant: σ_vM R²/P of Boussinesq's field is largest on the load's axis,
+    (3 + (1 − 2ν)/2)/(2π) (a scan of the polar angle)."""
+    theta = np.linspace(1e-6, np.pi / 2, 200001)
+    r, z = np.sin(theta), np.cos(theta)
+    q = (1 - 2 * nu) / (2 * np.pi)
+    radial = q / r ** 2 * (1 - z) - 3 * z * r ** 2 / (2 * np.pi)
+    hoop = -q * (1 / r ** 2 * (1 - z) - z)
+    stress = np.stack([radial, hoop, -3 * z ** 3 / (2 * np.pi), 0 * z,
+                       -3 * r * z ** 2 / (2 * np.pi), 0 * z], axis=-1)
+    assert_allclose(von_mises(stress).max(), (3 + (1 - 2 * nu) / 2) / (2 * np.pi), rtol=1e-9)
+
+
+@pytest.mark.parametrize("contact", ["point", "line"])
+def test_far_field_bound_holds(contact):
+    from sacflow.mechanics.hertz import hertz_subsurface_stress
+    from sacflow.mechanics.shakedown_certificate import far_field_bound
+
+    rng = np.random.default_rng(6)
+    for distance in (2.0, 5.0, 20.0):
+        theta = rng.uniform(0, np.pi / 2, 400)
+        phi = rng.uniform(0, 2 * np.pi, 400)
+        x1 = distance * np.sin(theta) * np.cos(phi)
+        x3 = distance * np.cos(theta)
+        if contact == "line":
+            x1, x3 = distance * np.sin(theta), distance * np.cos(theta)
+            s = line_contact_stress(x1, x3 + 1e-12, 1.0, 1.0, 0.3)
+        else:
+            s = hertz_subsurface_stress(x1, distance * np.sin(theta) * np.sin(phi), x3,
+                                        1.0, 1.0, 0.3)
+        assert von_mises(s).max() <= far_field_bound(contact, 0.3, distance)
+
+
+def test_ball_radius_bounds_bracket_the_exact_minimum_ball():
+    """Against the independent ``miniball`` package: lower ≤ exact ≤ upper, both tight."""
+    miniball = pytest.importorskip("miniball")
+    from sacflow.mechanics.shakedown_ceiling import ball_radius_bounds
+
+    rng = np.random.default_rng(0)
+    points = rng.standard_normal((40, 30, 6)) * rng.uniform(0.1, 2.0, (40, 1, 6))
+    lower, upper = ball_radius_bounds(points)
+    exact = np.sqrt([miniball.get_bounding_ball(p, rng=np.random.default_rng(0))[1]
+                     for p in points])
+    assert np.all(lower <= exact * (1 + 1e-12)) and np.all(upper >= exact * (1 - 1e-9))
+    assert_allclose(lower, exact, rtol=1e-6)
+    assert_allclose(upper, exact, rtol=1e-6)
+
+
+def test_kinematic_ceiling_of_one_point_is_its_ball():
+    """One point, a path and the unloaded state: the ceiling is 1/R of their smallest ball, in
+    von Mises units (two loads ± τ of pure shear: R = √3 τ)."""
+    from sacflow.mechanics.shakedown_ceiling import kinematic_ceiling
+
+    tau = 0.3
+    elastic = np.zeros((2, 1, 1, 6))
+    elastic[0, ..., 4], elastic[1, ..., 4] = tau, -tau
+    assert_allclose(kinematic_ceiling(elastic).load_factor, 1 / (SQRT3 * tau), rtol=1e-9)
+
+
+def test_certificate_refutes_the_coarse_optimum_between_its_samples():
+    """At samples a/6 the optimiser's factor is too large: a point between them, found on a
+    grid 20 times finer, is above yield. The certified bound covers that point (and every
+    other), and the certified factor lies below the true limit 4.0 k."""
+    from sacflow.mechanics.shakedown import knot_intervals
+    from sacflow.mechanics.shakedown_bracket import certify
+
+    bound = rolling_shakedown_bound("line", kind="depth", depth=2.0, sample_step=1 / 6,
+                                    knot_step=1 / 2)
+    field = SteadyResidualField(np.zeros(1), np.zeros(1), 3.0, 2.0,
+                                knot_intervals(3.0, 2.0, 0.5), "depth")
+    t, z = np.meshgrid(np.linspace(-3, 3, 721), np.linspace(0.0, 2.0, 241), indexing="ij")
+    g = von_mises(line_contact_stress(t.ravel(), z.ravel() + 1e-9, 1.0, 1.0, 0.3)
+                  + field.stress_at(bound.coefficients, 0 * z.ravel(), z.ravel()))
+    assert g.max() > 1.001 / bound.load_factor, "the samples miss a higher value"
+    certified = certify("line", 0.3, field, bound.coefficients, 1 / bound.load_factor)[0]
+    assert certified >= g.max()
+    assert SQRT3 / certified < 4.0 < SQRT3 * bound.load_factor
+
+
+def test_line_contact_bracket_holds_four_k():
+    """Certified lower bound ≤ 4.0 k ≤ kinematic ceiling, the gap under 0.5 %."""
+    from sacflow.mechanics.shakedown_bracket import rolling_bracket
+
+    b = rolling_bracket("line", kind="depth", depth=2.0, sample_step=1 / 24, knot_step=1 / 8)
+    assert SQRT3 * b.lower <= 4.0 <= SQRT3 * b.ceiling
+    assert b.gap < 5e-3 and b.inside.unresolved == 0
+    assert b.lower <= b.sampled and b.ceiling_low <= b.ceiling
+    assert SQRT3 * b.lower > 3.98
+
+
+@pytest.mark.slow
+def test_point_contact_bracket_holds_the_kinematic_limit():
+    """The sphere, whole steady class on ±3 a × 3 a: the certified floor sits within 1 % of
+    the kinematic ceiling, about 4.675 k."""
+    from sacflow.mechanics.shakedown_bracket import rolling_bracket
+
+    b = rolling_bracket("point", kind="full", ceiling_step=1 / 24)
+    assert 4.62 < SQRT3 * b.lower <= SQRT3 * b.ceiling < 4.70
+    assert SQRT3 * b.ceiling >= 4.67
+
+
+def test_kinematic_ceiling_takes_an_exact_minimum_ball():
+    """The ball routine is a parameter: an exact one (here ``miniball``'s centre with the
+    radius that holds every point) gives the same ceiling as the certified dual bounds, and
+    never a higher one (our radius is a lower bound of the smallest)."""
+    miniball = pytest.importorskip("miniball")
+    from sacflow.mechanics.shakedown import rolling_samples
+    from sacflow.mechanics.shakedown_ceiling import kinematic_ceiling
+
+    def exact(points, iterations):
+        """Exact radii; each set in coordinates of its own span, without repeats (paths span
+        at most the 5 deviatoric dimensions of 6: ``miniball``'s solves would be singular)."""
+        radii = []
+        for p in points:
+            _, singular, basis = np.linalg.svd(p - p.mean(axis=0))
+            span = basis[singular > 1e-12 * singular[0]]
+            q = np.unique(p @ span.T, axis=0)  # repeated points: singular too
+            centre, _ = miniball.get_bounding_ball(q, rng=np.random.default_rng(0))
+            radii.append(np.linalg.norm(q - centre, axis=1).max())  # a ball that holds all
+        r = np.array(radii)
+        return r, r
+
+    elastic, _, _ = rolling_samples("point", 0.3, 1.0, 1.0, 1 / 4, 2.0)
+    ours, theirs = kinematic_ceiling(elastic), kinematic_ceiling(elastic, exact)
+    assert_allclose(ours.load_factor, theirs.load_factor, rtol=1e-6)
+    assert ours.load_factor >= theirs.load_factor * (1 - 1e-12)

@@ -9,18 +9,25 @@ factor λ on that pressure for which a steady self-equilibrated residual stress 
 elastic–perfectly plastic body below yield at every load position (Melan's theorem). λ ≥ 1
 proves that the body shakes down under that pressure; λ < 1 says that no steady residual field
 of the class was found that does, which near 1 is no proof of ratcheting (λ is a lower
-bound of the shakedown factor).
+bound of the shakedown factor). The stage also reports the kinematic-hardening ceiling on the same
+samples (:func:`sacflow.mechanics.shakedown_ceiling.kinematic_ceiling`): no residual field
+proves more, so a ceiling below 1 proves that the body does not shake down elastically under
+that pressure; and the gap, ceiling / λ − 1, between the two. λ has its yield condition checked
+at the samples only (cell centres across the track, every a/12 in depth, load positions at
+whole cells); the certificate between samples of :mod:`sacflow.mechanics.shakedown_bracket`
+needs the elastic field at any point and is made for the Hertz closed forms only. The ceiling
+needs no such care: a subset of the load domain gives a valid, only looser, ceiling.
 
 Why the stored pressure, not the Hertz one: in a repeated-rolling run the residual surface
 displacement (the groove) is part of the gap, so the pressure flattens and spreads while the
 load stays the same. Classical shakedown limits (p0 about 4.7 k for a sphere) are for the
 elastic Hertz pressure; this stage answers the same question for the pressure the run found.
 
-Output: ``load_factor`` λ, the pressure's peak, λ × peak, the first-yield factor, the step
-used; ``residual_stress`` (x2, x3, component) of the safe state at λ; ``envelope`` (x2, x3),
-the largest von Mises stress over the load positions over σ_Y at λ; the verdict in the
-attributes. Only elastic–perfectly plastic bodies with a uniform yield stress and no friction,
-rolled along x1.
+Output: ``load_factor`` λ, ``ceiling_factor``, ``gap``, the pressure's peak, λ × peak, the
+first-yield factor, the step used; ``residual_stress`` (x2, x3, component) of the safe state
+at λ; ``envelope`` (x2, x3), the largest von Mises stress over the load positions over σ_Y
+at λ; the verdict in the attributes. Only elastic–perfectly plastic bodies with a uniform
+yield stress and no friction, rolled along x1.
 """
 
 from __future__ import annotations
@@ -39,9 +46,10 @@ __all__ = ["melan", "plot_melan"]
 STAGE = "melan"
 VERDICT_RULE = (
     "shakes down: load_factor >= 1, a steady self-equilibrated residual stress keeps this "
-    "pressure below yield at every load position (Melan's theorem); not proven safe: "
-    "load_factor < 1, no such field of the class was found (load_factor is a lower bound: "
-    "near 1 this is no proof of ratcheting)"
+    "pressure below yield at every load position sampled (Melan's theorem); does not shake "
+    "down: ceiling_factor < 1, no residual stress whatever can (the kinematic-hardening "
+    "ceiling); not proven safe: in between, no such field of the class was found (near 1 this "
+    "is no proof of ratcheting)"
 )
 
 
@@ -123,7 +131,8 @@ def melan(run: str | Path | xr.Dataset, step: int | None = None) -> xr.Dataset:
     CompareError
         For cases the check does not cover (module docstring) or a step without pressure.
     """
-    from sacflow.mechanics.shakedown import moving_pressure_bound
+    from sacflow.mechanics.shakedown import moving_pressure_bound, moving_pressure_samples
+    from sacflow.mechanics.shakedown_ceiling import kinematic_ceiling
 
     ds = load_run(run)
     require(ds, "pressure", "load_x2", stage=STAGE)
@@ -140,13 +149,22 @@ def melan(run: str | Path | xr.Dataset, step: int | None = None) -> xr.Dataset:
     patch, cell = _pressure_patch(ds, step)
     a = case.hertz().a
     bound = moving_pressure_bound(patch / yield_stress, cell, case.body.nu, a=a)
+    elastic = moving_pressure_samples(patch / yield_stress, cell, case.body.nu, a=a)[0]
+    ceiling = kinematic_ceiling(elastic).load_factor
     peak = float(patch.max())
     factor = bound.load_factor
-    verdict = "shakes down" if factor >= 1.0 else "not proven safe"
+    verdict = ("shakes down" if factor >= 1.0 else "does not shake down" if ceiling < 1.0
+               else "not proven safe")
     result = xr.Dataset(
         {
             "load_factor": ((), factor, {"units": "1", "long_name": "largest factor on the "
-                                         "pressure with a safe steady residual stress"}),
+                                         "pressure with a steady residual stress safe at "
+                                         "the samples"}),
+            "ceiling_factor": ((), ceiling, {"units": "1", "long_name": "kinematic-hardening "
+                                             "ceiling: no residual stress proves a larger "
+                                             "factor"}),
+            "gap": ((), ceiling / factor - 1.0, {"units": "1", "long_name": "ceiling_factor "
+                                                 "/ load_factor - 1"}),
             "peak_pressure": ((), peak, {"units": "Pa", "long_name": "peak of the rolled "
                                          "pressure"}),
             "shakedown_peak_pressure": ((), factor * peak, {
@@ -182,7 +200,8 @@ def plot_melan(result: xr.Dataset) -> Figure:
         left.plot(x3, result["residual_stress"].sel(component=comp).values[centre] / 1e6,
                   label=f"ρ{comp}")
     left.set(xlabel="depth x3 / a", ylabel="residual stress [MPa] on the track centre",
-             title=f"λ = {float(result['load_factor']):.3f}: {result.attrs['verdict']}")
+             title=f"λ = {float(result['load_factor']):.3f} (ceiling "
+             f"{float(result['ceiling_factor']):.3f}): {result.attrs['verdict']}")
     left.legend()
     left.grid(True, alpha=0.3)
     envelope = result["envelope"].values

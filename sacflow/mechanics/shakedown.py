@@ -11,26 +11,11 @@ traction-free on the surface, with
           \quad\text{for every point and every } s,
 
 and (with Koiter's kinematic theorem bounding it from above) the largest such λ is the
-shakedown limit. The load domain does not change under a shift
-of x1 and the yield condition is convex, so averaging a safe ρ over its shifts gives a safe ρ
-that does not depend on x1: the search runs over fields ρ(x2, x3) of the half-plane. With
-∂/∂x1 = 0 the equilibrium equations and the traction-free surface x3 = 0 are solved exactly by
-three stress functions:
-
-.. math::
-
-    \rho_{11} = s, \qquad
-    \rho_{12} = \partial_3\psi,\ \rho_{13} = -\partial_2\psi \quad (\psi = 0 \text{ on } x_3 = 0),
-
-    \rho_{22} = \partial_{33}\phi,\ \rho_{33} = \partial_{22}\phi,\ \rho_{23} = -\partial_{23}\phi
-    \quad (\phi = \partial_3\phi = 0 \text{ on } x_3 = 0).
-
-No compatibility is asked (Melan's theorem does not need it). Here s, ψ and φ are tensor
-products of clamped cubic B-splines on the box |x2| ≤ L, 0 ≤ x3 ≤ D; ψ, φ and ∂φ vanish on the
-box's far edges as well, so ρ is zero outside the box and self-equilibrated in the whole
-half-space, exactly: the stress functions are differentiated in closed form, not by differences.
-To these the ``"full"`` class adds ρ11(x3) and ρ22(x3), functions of depth only, which are
-admissible in a body of unbounded width (φ = φ(x3)); the ``"depth"`` class is that part alone.
+shakedown limit. The load domain does not change under a shift of x1 and the yield condition
+is convex, so averaging a safe ρ over its shifts gives a safe ρ that does not depend on x1: the
+search runs over fields ρ(x2, x3) of the half-plane, those of
+:class:`sacflow.mechanics.steady_residual.SteadyResidualField` (three stress functions as
+B-splines on a box, and a part of depth only).
 
 The largest von Mises stress over the samples is minimised over the spline coefficients; the
 maximum is smoothed by a log-sum-exp of the squared von Mises stress with a rising sharpness,
@@ -48,19 +33,21 @@ from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.interpolate import BSpline
 from scipy.optimize import minimize
 
 from sacflow.kernels.convolution import Convolution
 from sacflow.kernels.shear import surface_load_stress_coefficients
 from sacflow.mechanics.hertz import hertz_subsurface_stress, line_contact_stress
+from sacflow.mechanics.steady_residual import FieldClass, SteadyResidualField
 
 __all__ = [
     "MelanBound",
-    "SteadyResidualField",
     "melan_bound",
     "moving_pressure_bound",
+    "moving_pressure_samples",
     "pressure_stress",
+    "knot_intervals",
+    "rolling_samples",
     "rolling_shakedown_bound",
 ]
 
@@ -73,128 +60,6 @@ WARM_STAGES: tuple[float, ...] = SHARPNESS_STAGES[3:]
 STAGE_MAX_ITERATIONS = 3000
 #: L-BFGS memory (correction pairs).
 LBFGS_MEMORY = 30
-#: Degree of the B-splines of the stress functions (cubic: ρ continuous).
-SPLINE_DEGREE = 3
-
-FieldClass = Literal["full", "depth"]
-
-
-def _spline_basis(
-    low: float, high: float, intervals: int, points: NDArray[np.float64],
-    drop_low: int, drop_high: int,
-) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """Clamped cubic B-splines on [low, high] at ``points``: values, first, second derivatives.
-
-    ``drop_low`` (``drop_high``) basis functions are removed at the low (high) end: 1 makes
-    every combination vanish there, 2 also its first derivative (on a clamped knot vector only
-    the first k of them are non-zero or have a non-zero derivative at the end).
-    """
-    step = (high - low) / intervals
-    knots = np.concatenate([
-        np.full(SPLINE_DEGREE, low), low + step * np.arange(intervals + 1),
-        np.full(SPLINE_DEGREE, high),
-    ])
-    count = knots.size - SPLINE_DEGREE - 1
-    spline = BSpline(knots, np.eye(count), SPLINE_DEGREE, extrapolate=False)
-    keep = slice(drop_low, count - drop_high)
-    out = []
-    for order in range(3):
-        f = spline if order == 0 else spline.derivative(order)
-        out.append(np.nan_to_num(f(points))[:, keep])  # outside the box: zero
-    return out[0], out[1], out[2]
-
-
-class SteadyResidualField:
-    """Self-equilibrated residual stress ρ(x2, x3), independent of x1, on sample points.
-
-    The coefficient vector holds, in order: the depth-only part ρ11(x3), ρ22(x3) (splines on
-    [0, depth], free at both ends: admissible in a body of unbounded width), then, for
-    ``"full"``, the stress functions s, φ, ψ of the box (module docstring). So the ``"full"``
-    class contains the ``"depth"`` class, and a ``"depth"`` solution padded with zeros is a
-    ``"full"`` one (:meth:`extend`).
-
-    Parameters
-    ----------
-    x2, x3 : ndarray
-        Sample coordinates (1-D, any units, x3 ≥ 0 the depth).
-    half_width, depth : float
-        The box |x2| ≤ half_width, 0 ≤ x3 ≤ depth outside which the box part vanishes; the
-        depth-only part vanishes below ``depth``.
-    intervals : (int, int)
-        Knot intervals of the splines along x2 and x3.
-    kind : {"full", "depth"}
-        The whole class of the module docstring, or ρ11(x3), ρ22(x3) only.
-    """
-
-    def __init__(self, x2: NDArray[np.float64], x3: NDArray[np.float64], half_width: float,
-                 depth: float, intervals: tuple[int, int], kind: FieldClass = "full") -> None:
-        self.kind = kind
-        self.points = (len(x2), len(x3))
-        n2, n3 = intervals
-        self._z_free = _spline_basis(0.0, depth, n3, x3, 0, 0)
-        nz = self._z_free[0].shape[1]
-        self.shapes = [(1, nz), (1, nz)]
-        if kind == "full":
-            self._y_free = _spline_basis(-half_width, half_width, n2, x2, 0, 0)
-            self._y_phi = _spline_basis(-half_width, half_width, n2, x2, 2, 2)
-            self._z_phi = _spline_basis(0.0, depth, n3, x3, 2, 2)
-            self._y_psi = _spline_basis(-half_width, half_width, n2, x2, 1, 1)
-            self._z_psi = _spline_basis(0.0, depth, n3, x3, 1, 1)
-            self.shapes += [(b[0].shape[1], c[0].shape[1]) for b, c in (
-                (self._y_free, self._z_free), (self._y_phi, self._z_phi),
-                (self._y_psi, self._z_psi))]
-        self.sizes = [p * q for p, q in self.shapes]
-        self.size = sum(self.sizes)
-
-    def _split(self, c: NDArray[np.float64]) -> list[NDArray[np.float64]]:
-        out, start = [], 0
-        for shape, size in zip(self.shapes, self.sizes, strict=True):
-            out.append(c[start:start + size].reshape(shape))
-            start += size
-        return out
-
-    def extend(self, depth_coefficients: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Coefficients of this class for a field of the ``"depth"`` class on the same knots."""
-        out = np.zeros(self.size)
-        out[:depth_coefficients.size] = depth_coefficients
-        return out
-
-    def stress(self, c: NDArray[np.float64]) -> NDArray[np.float64]:
-        """ρ at the samples, shape (n2, n3, 6), components (11, 22, 33, 12, 13, 23)."""
-        rho = np.zeros((*self.points, 6))
-        z0 = self._z_free[0]
-        parts = self._split(c)
-        rho[..., 0] = (z0 @ parts[0][0])[None, :]
-        rho[..., 1] = (z0 @ parts[1][0])[None, :]
-        if self.kind == "depth":
-            return rho
-        s, phi, psi = parts[2:]
-        a0, a1, a2 = self._y_phi
-        b0, b1, b2 = self._z_phi
-        c0, c1, _ = self._y_psi
-        d0, d1, _ = self._z_psi
-        rho[..., 0] += self._y_free[0] @ s @ z0.T
-        rho[..., 1] += a0 @ phi @ b2.T
-        rho[..., 2] = a2 @ phi @ b0.T
-        rho[..., 5] = -(a1 @ phi @ b1.T)
-        rho[..., 3] = c0 @ psi @ d1.T
-        rho[..., 4] = -(c1 @ psi @ d0.T)
-        return rho
-
-    def adjoint(self, g: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Gradient with respect to the coefficients of Σ g·ρ (g of shape (n2, n3, 6))."""
-        z0 = self._z_free[0]
-        out = [g[..., 0].sum(axis=0) @ z0, g[..., 1].sum(axis=0) @ z0]
-        if self.kind == "full":
-            a0, a1, a2 = self._y_phi
-            b0, b1, b2 = self._z_phi
-            c0, c1, _ = self._y_psi
-            d0, d1, _ = self._z_psi
-            out.append((self._y_free[0].T @ g[..., 0] @ z0).ravel())
-            out.append((a0.T @ g[..., 1] @ b2 + a2.T @ g[..., 2] @ b0
-                        - a1.T @ g[..., 5] @ b1).ravel())
-            out.append((c0.T @ g[..., 3] @ d1 - c1.T @ g[..., 4] @ d0).ravel())
-        return np.concatenate(out)
 
 
 def _squared_von_mises(s: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -300,11 +165,34 @@ def melan_bound(elastic: NDArray[np.float64], field: SteadyResidualField,
     )
 
 
+def knot_intervals(half_width: float, depth: float, knot_step: float) -> tuple[int, int]:
+    """Knot intervals of the residual field's box along x2 and x3, about ``knot_step`` each."""
+    return max(1, round(2 * half_width / knot_step)), max(1, round(depth / knot_step))
+
+
+def rolling_samples(contact: Literal["point", "line"], nu: float, half_width: float,
+                    depth: float, sample_step: float, track: float
+                    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Elastic Hertz stress per unit p0 at the samples of :func:`rolling_shakedown_bound`.
+
+    Returns the stress, shape (n1, n2, n3, 6) over load offsets x1 ∈ [−track, track], and the
+    sample coordinates x2, x3 (one x2 = 0 for the line contact), lengths in a.
+    """
+    x1 = np.arange(-track, track + 0.5 * sample_step, sample_step)
+    x3 = np.arange(0.5 * sample_step, depth, sample_step)
+    if contact == "line":
+        x2 = np.zeros(1)
+        return line_contact_stress(x1[:, None], x3[None, :], 1.0, 1.0, nu)[:, None], x2, x3
+    x2 = np.arange(-half_width, half_width + 0.5 * sample_step, sample_step)
+    X1, X2, X3 = np.meshgrid(x1, x2, x3, indexing="ij")
+    return hertz_subsurface_stress(X1, X2, X3, 1.0, 1.0, nu), x2, x3
+
+
 def _solve(elastic: NDArray[np.float64], x2: NDArray[np.float64], x3: NDArray[np.float64],
            half_width: float, depth: float, knot_step: float,
            kind: FieldClass) -> MelanBound:
     """:func:`melan_bound` on a class; the whole class starts from the depth-only optimum."""
-    intervals = (max(1, round(2 * half_width / knot_step)), max(1, round(depth / knot_step)))
+    intervals = knot_intervals(half_width, depth, knot_step)
     depth_only = SteadyResidualField(x2, x3, half_width, depth, intervals, "depth")
     first = melan_bound(elastic, depth_only)
     if kind == "depth":
@@ -347,17 +235,9 @@ def rolling_shakedown_bound(
     MelanBound
         ``load_factor`` in units of σ_Y; times √3 for k = σ_Y/√3.
     """
-    x1 = np.arange(-track, track + 0.5 * sample_step, sample_step)
-    x3 = np.arange(0.5 * sample_step, depth, sample_step)
-    if contact == "line":
-        if kind != "depth":
-            raise ValueError("a line contact has plane-strain fields: use kind='depth'")
-        x2 = np.zeros(1)
-        elastic = line_contact_stress(x1[:, None], x3[None, :], 1.0, 1.0, nu)[:, None]
-    else:
-        x2 = np.arange(-half_width, half_width + 0.5 * sample_step, sample_step)
-        X1, X2, X3 = np.meshgrid(x1, x2, x3, indexing="ij")
-        elastic = hertz_subsurface_stress(X1, X2, X3, 1.0, 1.0, nu)
+    if contact == "line" and kind != "depth":
+        raise ValueError("a line contact has plane-strain fields: use kind='depth'")
+    elastic, x2, x3 = rolling_samples(contact, nu, half_width, depth, sample_step, track)
     return _solve(elastic, x2, x3, half_width, depth, knot_step, kind)
 
 
@@ -396,6 +276,26 @@ def pressure_stress(pressure: NDArray[np.float64], cell: tuple[float, float],
     return np.moveaxis(stress, (0, 1), (2, 3))
 
 
+def moving_pressure_samples(
+    pressure: NDArray[np.float64], cell: tuple[float, float], nu: float, *, a: float,
+    track: float = 3.0, half_width: float = 3.0, depth: float = 3.0,
+    depth_step: float = 1.0 / 12.0,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Sample the load domain of :func:`moving_pressure_bound`.
+
+    Returns the elastic stress (n1, n2, n3, 6) in the unit of ``pressure``, and the sample
+    coordinates x2, x3 in the length unit of ``cell`` and ``a``.
+    """
+    m1, m2 = pressure.shape
+    pad1 = max(0, int(np.ceil(track * a / cell[0] - m1 / 2)))
+    pad2 = max(0, int(np.ceil(half_width * a / cell[1] - m2 / 2)))
+    x3 = np.arange(0.5 * depth_step, depth, depth_step) * a
+    elastic = pressure_stress(pressure, cell, x3, nu, (pad1, pad2))
+    x2 = (np.arange(m2 + 2 * pad2) - (m2 + 2 * pad2 - 1) / 2) * cell[1]
+    inside = np.abs(x2) <= half_width * a
+    return elastic[:, inside], x2[inside], x3
+
+
 def moving_pressure_bound(
     pressure: NDArray[np.float64], cell: tuple[float, float], nu: float, *, a: float,
     track: float = 3.0, half_width: float = 3.0, depth: float = 3.0,
@@ -407,7 +307,10 @@ def moving_pressure_bound(
     the track's centre line) at every position along the track, sampled at whole cells, and the
     unloaded state. Points: cell centres across the track within ± ``half_width``, depths
     every ``depth_step`` down to ``depth`` (all in units of ``a``); the residual field class
-    is the whole steady class on that box (:class:`SteadyResidualField`).
+    is the whole steady class on that box (:class:`SteadyResidualField`). Yield is checked
+    at these samples only: the factor is not certified between them (that certificate,
+    :mod:`sacflow.mechanics.shakedown_bracket`, needs the elastic field at any point, which
+    the Hertz closed forms give).
 
     Returns
     -------
@@ -415,13 +318,8 @@ def moving_pressure_bound(
         ``load_factor``: the factor by which ``pressure`` can be scaled and still shake down,
         in units of σ_Y when ``pressure`` is given in units of σ_Y.
     """
-    m1, m2 = pressure.shape
-    pad1 = max(0, int(np.ceil(track * a / cell[0] - m1 / 2)))
-    pad2 = max(0, int(np.ceil(half_width * a / cell[1] - m2 / 2)))
-    x3 = np.arange(0.5 * depth_step, depth, depth_step) * a
-    elastic = pressure_stress(pressure, cell, x3, nu, (pad1, pad2))
-    x2 = (np.arange(m2 + 2 * pad2) - (m2 + 2 * pad2 - 1) / 2) * cell[1]
-    inside = np.abs(x2) <= half_width * a
-    elastic, x2 = elastic[:, inside], x2[inside]
+    elastic, x2, x3 = moving_pressure_samples(pressure, cell, nu, a=a, track=track,
+                                              half_width=half_width, depth=depth,
+                                              depth_step=depth_step)
     bound = _solve(elastic, x2 / a, x3 / a, half_width, depth, knot_step, "full")
     return replace(bound, x2=x2, x3=x3)
