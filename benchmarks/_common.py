@@ -40,18 +40,27 @@ def isolated(func: Callable[..., dict], *args: Any) -> dict:
     return result
 
 
-def hertz_step_case(n: int, scheme: str = "coupled") -> dict:
+#: Plasticity of the one-step benchmark case: (yield stress, hardening modulus) [Pa].
+#: ``mild``: σ_Y = p0/2, H = 0.05 E (a small plastic zone, about a tenth of the box at n = 128);
+#: ``strong``: the nano-indentation steel's linear law, σ_Y = 1655.6 MPa, H = 21 GPa (largest
+#: εp about 2.3 %, a plastic zone of about half the box): the cases users run.
+HARDENING = {"mild": (8.4696e9 / 2, 0.05 * 210e9), "strong": (1655.6e6, 21e9)}
+
+
+def hertz_step_case(n: int, scheme: str = "coupled", hardening: str = "mild") -> dict:
     """One elastic-plastic load step of a rigid sphere on linear hardening, n × n × n/2 box.
 
-    R = 105 µm, W = 0.65 N (Hertz p0 = 8.47 GPa), E = 210 GPa, ν = 0.3, σ_Y = p0/2,
-    H = 0.05 E, one increment, plasticity tolerance 1e-6, ±1.5 a (the case of
-    ``elastic_plastic.py`` and ``scale.py``).
+    R = 105 µm, W = 0.65 N (Hertz p0 = 8.47 GPa), E = 210 GPa, ν = 0.3, linear hardening of
+    :data:`HARDENING` (``mild`` or ``strong``), one increment, plasticity tolerance 1e-6,
+    ±1.5 a (the case of ``elastic_plastic.py`` and ``scale.py``).
     """
-    E, p0 = 210e9, 8.4696e9
+    E = 210e9
+    yield_stress, modulus = HARDENING[hardening]
     return {
-        "name": f"hertz-step-{n}",
+        "name": f"hertz-step-{hardening}-{n}",
         "body": {"E": E, "nu": 0.3,
-                 "hardening": {"law": "linear", "yield_stress": p0 / 2, "modulus": 0.05 * E}},
+                 "hardening": {"law": "linear", "yield_stress": yield_stress,
+                               "modulus": modulus}},
         "counterbody": {"kind": "rigid", "radius": 105e-6},
         "grid": {"nx": n, "ny": n, "nz": n // 2, "half_width": 1.5},
         "load_path": [{"kind": "load", "to": 0.65, "increments": 1}],

@@ -37,7 +37,7 @@ def measure(passes: int, kinematic: tuple[float, float] | None) -> dict:
     steps: dict[int, int] = defaultdict(int)
     contact: dict[int, int] = defaultdict(int)
     plastic: dict[int, int] = defaultdict(int)
-    eqps: dict[int, float] = {}
+    peak: dict[int, float] = {}
     t0 = time.perf_counter()
     for state in sim.run():
         now = time.perf_counter()
@@ -45,11 +45,11 @@ def measure(passes: int, kinematic: tuple[float, float] | None) -> dict:
         steps[state.pass_index] += 1
         contact[state.pass_index] += state.contact_iterations
         plastic[state.pass_index] += state.plasticity_iterations
-        eqps[state.pass_index] = float(sim.equivalent_plastic_strain.max())
+        peak[state.pass_index] = float(sim.equivalent_plastic_strain.max())
         t0 = time.perf_counter()
     rows = [{"pass": p, "wall_s": round(wall[p], 3), "steps": steps[p],
              "contact_iterations": contact[p], "plasticity_sweeps": plastic[p],
-             "max_eqps_at_end": eqps[p]} for p in sorted(wall)]
+             "max_equivalent_plastic_strain_at_end": peak[p]} for p in sorted(wall)]
     first = rows[0]["wall_s"]
     return {
         "hardening": "swift" if kinematic is None else

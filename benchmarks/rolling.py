@@ -47,7 +47,7 @@ def measure(factor: int) -> dict:
         "residual_stress_applications_per_step_mean": float(apps.mean()),
         "residual_stress_applications_per_step_max": int(apps.max()),
         "contact_iterations_per_step_mean": float(np.mean([c for _, c in per_step])),
-        "max_eqps": float(sim.equivalent_plastic_strain.max()),
+        "max_equivalent_plastic_strain": float(sim.equivalent_plastic_strain.max()),
         "max_residual_displacement_m": float(sim.residual_displacement.max()),
     }
 

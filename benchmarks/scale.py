@@ -1,8 +1,11 @@
 """Fine meshes on one machine: set-up (cold and warm kernel cache), one step, peak memory.
 
 One elastic-plastic load step of a rigid sphere (R = 105 µm, W = 0.65 N, Hertz p0 = 8.47 GPa)
-on linear hardening (σ_Y = p0/2, H = 0.05 E), plasticity tolerance 1e-6, n × n surface cells
-over ±1.5 a and an n × n × n/2 cuboid box (the case of ``benchmarks/elastic_plastic.py``).
+on linear hardening, plasticity tolerance 1e-6, n × n surface cells over ±1.5 a and an
+n × n × n/2 cuboid box (the case of ``benchmarks/elastic_plastic.py``), for two materials
+(``_common.HARDENING``): ``mild`` (σ_Y = p0/2, H = 0.05 E: a small plastic zone) and
+``strong`` (the nano-indentation steel, σ_Y = 1655.6 MPa, H = 21 GPa: a plastic zone of about
+half the box). A cost that grows with the plastic zone shows in the second only: both are run.
 
 For each n, in fresh processes sharing a new, empty kernel cache directory:
 
@@ -12,9 +15,13 @@ For each n, in fresh processes sharing a new, empty kernel cache directory:
 The processes have the malloc settings of ``sacflow run``
 (:func:`sacflow.machine.malloc.tune_malloc`).
 Prints JSON: set-up and step wall times, the step's operator applications and contact
-iterations, the peak resident memory of each process, and where the set-up's time went (the
-eigenstrain operator alone). ``--profile`` adds the ten functions of the step with the most
-own time. Usage: ``python benchmarks/scale.py [--profile] [n ...]`` (default 64 128).
+iterations, the time per plastic iteration (step time over residual-stress applications), the
+plastic zone (cells with εp > 0, and their share of the box), the peak resident memory of each
+process, and where the set-up's time went (the eigenstrain operator alone). ``--profile`` adds
+the ten functions of the step with the most own time. ``--hardening=mild`` or ``=strong`` runs
+one material only; ``--threads=K`` sets the FFT threads (``SACFLOW_FFT_THREADS``).
+Usage: ``python benchmarks/scale.py [--profile] [--hardening=H] [--threads=K] [n ...]``
+(default 64 128).
 """
 
 from __future__ import annotations
@@ -27,8 +34,11 @@ import time
 from _common import emit, hertz_step_case, isolated
 
 
-def one_step(n: int, cache: str, label: str, profile: bool) -> dict:
+def one_step(n: int, cache: str, label: str, profile: bool, hardening: str,
+             threads: str | None) -> dict:
     os.environ["SACFLOW_CACHE_DIR"] = cache
+    if threads is not None:
+        os.environ["SACFLOW_FFT_THREADS"] = threads
     import numpy as np
 
     from sacflow.machine.malloc import tune_malloc
@@ -37,6 +47,7 @@ def one_step(n: int, cache: str, label: str, profile: bool) -> dict:
 
     from sacflow.config.solver_inputs import simulation_for
     from sacflow.kernels import eigenstrain
+    from sacflow.kernels.fft import default_threads
     from sacflow.storage.case_file import case_from_dict
 
     spent = {"eigenstrain_s": 0.0}
@@ -49,7 +60,7 @@ def one_step(n: int, cache: str, label: str, profile: bool) -> dict:
 
     eigenstrain.HalfSpaceEigenstrain.__init__ = timed_build
     t0 = time.perf_counter()
-    sim = simulation_for(case_from_dict(hertz_step_case(n)))
+    sim = simulation_for(case_from_dict(hertz_step_case(n, hardening=hardening)))
     setup = time.perf_counter() - t0
     import resource
 
@@ -63,18 +74,24 @@ def one_step(n: int, cache: str, label: str, profile: bool) -> dict:
     t0 = time.perf_counter()
     state = next(iter(sim.run()))
     step = time.perf_counter() - t0
+    cuboids = int(np.prod(sim.equivalent_plastic_strain.shape))
+    plastic = int((sim.equivalent_plastic_strain > 0).sum())
     result = {
         "n": n,
+        "hardening": hardening,
+        "fft_threads": sim.inputs.settings.fft_threads or default_threads(),
         "cache": label,
-        "cuboids": int(np.prod(sim.equivalent_plastic_strain.shape)),
+        "cuboids": cuboids,
         "setup_s": round(setup, 2),
         "eigenstrain_setup_s": round(spent["eigenstrain_s"], 2),
         "setup_peak_memory_mb": round(setup_peak),
         "step_s": round(step, 2),
         "residual_stress_applications": state.plasticity_iterations,
+        "step_s_per_plastic_iteration": round(step / max(state.plasticity_iterations, 1), 3),
         "contact_iterations": state.contact_iterations,
-        "plastic_cells": int((sim.equivalent_plastic_strain > 0).sum()),
-        "max_eqps": float(sim.equivalent_plastic_strain.max()),
+        "plastic_cells": plastic,
+        "plastic_share": round(plastic / cuboids, 4),
+        "max_equivalent_plastic_strain": float(sim.equivalent_plastic_strain.max()),
     }
     if profiler is not None:
         import io
@@ -89,10 +106,14 @@ def one_step(n: int, cache: str, label: str, profile: bool) -> dict:
 
 if __name__ == "__main__":
     args = [a for a in sys.argv[1:] if not a.startswith("--")]
+    options = dict(a[2:].split("=", 1) for a in sys.argv[1:] if a.startswith("--") and "=" in a)
     profile = "--profile" in sys.argv
+    materials = [options["hardening"]] if "hardening" in options else ["mild", "strong"]
     results = []
     for n in [int(a) for a in args] or [64, 128]:
-        with tempfile.TemporaryDirectory(prefix="sacflow-scale-cache-") as cache:
-            for label in ("cold", "warm"):
-                results.append(isolated(one_step, n, cache, label, profile))
+        for hardening in materials:
+            with tempfile.TemporaryDirectory(prefix="sacflow-scale-cache-") as cache:
+                for label in ("cold", "warm"):
+                    results.append(isolated(one_step, n, cache, label, profile, hardening,
+                                            options.get("threads")))
     emit("scale", results)
