@@ -427,25 +427,12 @@ def _fuzz_environment(example) -> None:
             argv += [str(CONFIGS / "hertz-elastic.toml"), "--set=grid.nx=16", "--set=grid.ny=16"]
         elif command[0] == "info":
             argv += [str(a_file)]
-        with _environment(env):
+        with cluster_module.saved_environ(env):
+            os.environ.update(env)
             code, out, err = run_cli(argv)
     check_outcome("environment", code, out, err, (values, command))
     if command[0] == "validate":
         assert code in (0, 2), f"exit {code} after {values}:\n{err}"
-
-
-@contextlib.contextmanager
-def _environment(values: dict[str, str]) -> Iterator[None]:
-    saved = {k: os.environ.get(k) for k in values}
-    os.environ.update(values)
-    try:
-        yield
-    finally:
-        for key, value in saved.items():
-            if value is None:
-                os.environ.pop(key, None)
-            else:
-                os.environ[key] = value
 
 
 def test_fuzz_environment() -> None:
