@@ -212,7 +212,7 @@ to = 1.0
 def test_material_point_stage_from_the_command_line(tmp_path, capsys):
     import xarray as xr
 
-    from sacflow.cli import EXIT_RUN_FAILED, main
+    from sacflow.cli import EXIT_CONFIG, main
 
     case = tmp_path / "af.toml"
     case.write_text(MATERIAL_CASE)
@@ -229,7 +229,7 @@ def test_material_point_stage_from_the_command_line(tmp_path, capsys):
     elastic = tmp_path / "elastic.toml"
     elastic.write_text((ROOT / "configs" / "hertz-elastic.toml").read_text())
     assert main(["compare", "material-point", str(elastic), "--amplitude", "0.01",
-                 "--out", str(out)]) == EXIT_RUN_FAILED
-    assert main(["compare", "material-point", str(case), "--out", str(out)]) == EXIT_RUN_FAILED
+                 "--out", str(out)]) == EXIT_CONFIG
+    assert main(["compare", "material-point", str(case), "--out", str(out)]) == EXIT_CONFIG
     err = capsys.readouterr().err
     assert "the body is elastic" in err and "needs --amplitude" in err

@@ -37,7 +37,7 @@ __all__ = [
 
 
 # --------------------------------------------------------------------------- public API
-def load_case(path: str | Path, overrides: Sequence[str] = ()) -> Case:
+def load_case(path: str | Path, overrides: Sequence[str] = (), check_files: bool = True) -> Case:
     """Read a case file (TOML, or JSON as stored in a run file), apply overrides, validate.
 
     Parameters
@@ -48,6 +48,10 @@ def load_case(path: str | Path, overrides: Sequence[str] = ()) -> Case:
     overrides : sequence of str
         ``dotted.key=value`` items applied in order
         (:func:`sacflow.config.parsing.apply_overrides`).
+    check_files : bool
+        Check that the files the case names can be read (default). False validates the case
+        alone, before those files exist (a pipeline checking a chained case before the run it
+        starts from): the case then has no file fingerprints, and no id until they can be read.
 
     Raises
     ------
@@ -66,6 +70,8 @@ def load_case(path: str | Path, overrides: Sequence[str] = ()) -> Case:
     except ConfigError as exc:
         raise ConfigError(f"{path}: {exc}") from None
     resolve_surface_path(data, path.parent)
+    if not check_files:
+        return validate_case(data, str(path))
     return case_from_dict(data, source=str(path))
 
 
