@@ -1,7 +1,7 @@
 """Eigenstrain operators: set-up and per-application times against the FFT floor.
 
 Usage: ``python benchmarks/eigenstrain.py [n1xn2xn3 ...]`` (default 32x32x16 64x64x32
-128x128x64). The floor (the issue's definition, as in DESIGN §6) is the time of twelve
+128x128x64). The floor is the time of twelve
 forward+inverse pairs of 3-D real FFTs of the padded (2 n1 × 2 n2 × 2 n3) grid with pyfftw on
 all cores, planned with FFTW_MEASURE and no time limit (the operator's own 3-D plans have a
 0.3 s limit). An application transforms six components forward and six back (cosine and sine

@@ -1,7 +1,7 @@
 """Running a campaign: one dask task and one run file per case, outcomes in the manifest.
 
 Each task (:func:`run_one`) writes ``<out>/<case name>.nc`` through
-:func:`sacflow.runner.run_case` -- no shared file, no lock (DESIGN §1, STYLE 10); the campaign
+:func:`sacflow.runner.run_case` -- no shared file, no lock; the campaign
 process only gathers the outcomes into the manifest (:mod:`sacflow.campaign.manifest`).
 Finished cases are skipped on a re-run, interrupted ones resume after their stored steps, a run
 of another case stored under a case's name is not replaced unless asked, and a failing case is

@@ -7,7 +7,7 @@ for the quantities a result shares with a run, e.g. ``pressure``). Long names an
 ``{placeholders}`` filled from the ``context`` given to :func:`build` (a tensor component, the
 units of a compared variable).
 
-Conventions (DESIGN §3–4): SI units, x3 depth positive into the body, stress positive in tension,
+Conventions: SI units, x3 depth positive into the body, stress positive in tension,
 residual displacement positive into the body (an indent is positive).
 
 Step choice, used by every stage:

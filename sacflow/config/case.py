@@ -1,4 +1,4 @@
-"""The case: one sacflow run, from its bodies to its output (DESIGN §2, STYLE 9).
+"""The case: one sacflow run, from its bodies to its output (a frozen, hashable model).
 
 A :class:`Case` holds everything that defines a run: the elastic-plastic body (body 1) and its
 hardening law, the counter-body, the surface (smooth, dented, measured), the grid, the load path,

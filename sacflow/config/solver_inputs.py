@@ -61,7 +61,7 @@ def simulation_for(case: Case, surface: MeasuredSurface | None = None,
         The validated case.
     surface : MeasuredSurface, optional
         The heights of a measured surface (``surface.kind = "measured"``), as arrays: read them
-        with :func:`sacflow.storage.run_file.load_surface`. Other surfaces need nothing.
+        with :func:`sacflow.storage.surface_file.load_surface`. Other surfaces need nothing.
     initial : StoredState, optional
         The stored state a chained case starts from (``initial_state``): read it with
         :func:`sacflow.storage.initial_state_file.read_initial_state`.
@@ -128,7 +128,7 @@ def _contact(case: Case, surface: MeasuredSurface | None) -> ContactSpec:
     if measured and surface is None:
         raise SacflowError(
             "surface: a measured surface needs its heights: build the simulation with "
-            "simulation_for(case, surface=sacflow.storage.run_file.load_surface(case)), "
+            "simulation_for(case, surface=sacflow.storage.surface_file.load_surface(case)), "
             "or use sacflow.run"
         )
     return ContactSpec(case.contact_modulus(), case.effective_radii(), case.hertz(), traction,

@@ -1,1 +1,1 @@
-"""Influence coefficients and convolution operators of the elastic half-space (DESIGN §3)."""
+"""Influence coefficients and convolution operators of the elastic half-space."""

@@ -11,7 +11,7 @@ Conventions
   component d filling the cuboid |ξ1| <= half1, |ξ2| <= half2, |ξ3 − c3| <= half3 of the
   traction-free half-space (c3 − half3 >= 0).  For an eigenstrain field constant per cuboid,
   ``u3(x) = Σ_cells Σ_d K_d(x − x_cell, c3_cell) ε*_d(cell)``, a 2-D convolution per layer
-  (DC-FFT, DESIGN §3 operator 4).
+  (DC-FFT).
 
 Method: reciprocal theorem with initial strains
 -----------------------------------------------

@@ -41,7 +41,7 @@ def dent_profile(
 ) -> np.ndarray:
     """Gap added by a damped-sinusoid dent: ``A cos(2π r / w) exp(−decay r² / w²)``.
 
-    Reading of seed eq. (3.3) consistent with its numbers (DESIGN §3): for A = 35 µm,
+    Reading of seed eq. (3.3) consistent with its numbers: for A = 35 µm,
     w = 450 µm the profile crosses zero at r = w/4 ≈ 112 µm and has shoulders ≈ −0.12 A high
     at r ≈ 0.35 w (the shoulders stand proud of the surface, reducing the gap).
     """

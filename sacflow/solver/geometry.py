@@ -74,7 +74,7 @@ class LoadGeometry:
 def measured_heights(surface: MeasuredSurface | None) -> Heights | None:
     """Height function of a measured surface (linear interpolation), or None.
 
-    The heights come as arrays (:func:`sacflow.storage.run_file.load_surface` reads the file):
+    The heights come as arrays (:func:`sacflow.storage.surface_file.load_surface` reads the file):
     the numerical core does no I/O. Points outside the measured grid raise
     :class:`~sacflow.errors.SacflowError` naming the uncovered extent.
     """

@@ -1,9 +1,9 @@
 """Plain containers passed from the solver to the store: no xarray, no I/O.
 
-The solver yields one :class:`State` per load increment; :mod:`sacflow.storage.run_file` is the
-only module
-that turns it into labelled data (DESIGN §4). All arrays are float64 in SI units on the body-fixed
-grid described by :class:`GridCoords`.
+The solver yields one :class:`State` per load increment; the storage layer alone turns it into
+labelled data (:mod:`sacflow.storage.run_variables` holds the one table of dimensions, units and
+long names; :mod:`sacflow.storage.run_layout` writes it). All arrays are float64 in SI units on
+the body-fixed grid described by :class:`GridCoords`.
 """
 
 from __future__ import annotations
