@@ -3,7 +3,7 @@
 Every failure a user can cause or meet is a :class:`SacflowError`: the command line prints its
 message (never a traceback) and exits with 2 for an :class:`InputError` (a :class:`ConfigError`,
 a file given as a run that is not one, a wrong comparison option), 1 for anything else.
-Numerical failures are raised, never returned as a flag to forget (STYLE 7).
+Numerical failures are raised, never returned as a flag to forget.
 """
 
 from __future__ import annotations

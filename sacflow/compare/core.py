@@ -1,6 +1,6 @@
 """Shared pieces of the comparison stages: errors, run access, step choice, result metadata.
 
-Computation and metadata are separate layers (STYLE 8): the stages compute bare arrays and hand
+Computation and metadata are separate layers: the stages compute bare arrays and hand
 them to :func:`build`, which attaches ``units`` and ``long_name`` from the one table
 :data:`RESULTS` (falling back on the run-file table :data:`sacflow.storage.run_variables.VARIABLES`
 for the quantities a result shares with a run, e.g. ``pressure``). Long names and units may hold

@@ -2,7 +2,7 @@
 
 The Hertz quantities come from :mod:`sacflow.mechanics.hertz` (one closed form, used by the tests
 and
-the stages alike, STYLE 2) with the effective radius R and the contact modulus E* of the case
+the stages alike) with the effective radius R and the contact modulus E* of the case
 stored in the run (:meth:`sacflow.config.schema.Case.hertz`): δ = a²/R = (9 W² / 16 R E*²)^(1/3),
 a = (3 W R / 4 E*)^(1/3), p0 = 3 W / (2 π a²).
 """

@@ -1,6 +1,6 @@
 """Read case files and the files a case names; turn every mistake into a clear message.
 
-Bad input is rejected where it enters (STYLE 12): every failure here is a
+Bad input is rejected where it enters: every failure here is a
 :class:`~sacflow.errors.ConfigError` whose text fits on one screen: the file name, then one line
 per problem with the dotted field path (as written in the file, list indices as numbers, e.g.
 ``load_path.0.to``), what is wrong, what the field means, and the value found. This module reads
