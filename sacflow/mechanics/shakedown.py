@@ -39,6 +39,7 @@ from sacflow.kernels.convolution import Convolution
 from sacflow.kernels.shear import surface_load_stress_coefficients
 from sacflow.mechanics.hertz import hertz_subsurface_stress, line_contact_stress
 from sacflow.mechanics.steady_residual import FieldClass, SteadyResidualField
+from sacflow.mechanics.stress_measures import squared_von_mises_and_gradient
 
 __all__ = [
     "MelanBound",
@@ -60,14 +61,6 @@ WARM_STAGES: tuple[float, ...] = SHARPNESS_STAGES[3:]
 STAGE_MAX_ITERATIONS = 3000
 #: L-BFGS memory (correction pairs).
 LBFGS_MEMORY = 30
-
-
-def _squared_von_mises(s: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """σ_vM² of (..., 6) stresses and its gradient with respect to the six components."""
-    a, b, c, d, e, f = (s[..., i] for i in range(6))
-    q = 0.5 * ((a - b) ** 2 + (b - c) ** 2 + (c - a) ** 2) + 3.0 * (d * d + e * e + f * f)
-    grad = np.stack([2 * a - b - c, 2 * b - c - a, 2 * c - a - b, 6 * d, 6 * e, 6 * f], axis=-1)
-    return q, grad
 
 
 @dataclass(frozen=True)
@@ -130,11 +123,11 @@ def melan_bound(elastic: NDArray[np.float64], field: SteadyResidualField,
     sig = np.concatenate([elastic, np.zeros((1, *elastic.shape[1:]))], axis=0)
     # Work on the elastic field over its largest von Mises stress: the optimisation is then
     # the same, bit for bit, for any scale of the load (and the coefficients are of order 1).
-    elastic_peak = float(np.sqrt(_squared_von_mises(sig)[0].max()))
+    elastic_peak = float(np.sqrt(squared_von_mises_and_gradient(sig)[0].max()))
     sig = sig / elastic_peak
 
     def smoothed(c: NDArray[np.float64], sharpness: float) -> tuple[float, NDArray[np.float64]]:
-        q, grad = _squared_von_mises(sig + field.stress(c)[None])
+        q, grad = squared_von_mises_and_gradient(sig + field.stress(c)[None])
         top = float(q.max())
         w = np.exp(sharpness * (q - top))
         total = float(w.sum())
@@ -142,7 +135,7 @@ def melan_bound(elastic: NDArray[np.float64], field: SteadyResidualField,
         return top + np.log(total) / sharpness, field.adjoint(g)
 
     def largest(c: NDArray[np.float64]) -> float:
-        return float(np.sqrt(_squared_von_mises(sig + field.stress(c)[None])[0].max()))
+        return float(np.sqrt(squared_von_mises_and_gradient(sig + field.stress(c)[None])[0].max()))
 
     c = (np.zeros(field.size) if start is None
          else np.asarray(start, dtype=float) / elastic_peak)
@@ -157,7 +150,7 @@ def melan_bound(elastic: NDArray[np.float64], field: SteadyResidualField,
         if value < best:
             best, best_c = value, c
     residual = field.stress(best_c)
-    envelope = np.sqrt(_squared_von_mises(sig + residual[None])[0].max(axis=0)) / best
+    envelope = np.sqrt(squared_von_mises_and_gradient(sig + residual[None])[0].max(axis=0)) / best
     return MelanBound(
         load_factor=1.0 / (best * elastic_peak), elastic_limit=1.0 / elastic_peak,
         residual=residual * elastic_peak, coefficients=best_c * elastic_peak, stages=history,

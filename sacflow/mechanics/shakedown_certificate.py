@@ -54,6 +54,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from sacflow.mechanics.steady_residual import SteadyResidualField
+from sacflow.mechanics.stress_measures import von_mises
 
 __all__ = [
     "CertifiedMaximum",
@@ -92,12 +93,6 @@ def von_mises_of_bounds(bounds: NDArray[np.float64]) -> NDArray[np.float64]:
         a, c, d = (s * b[..., i] for i, s in enumerate(signs))
         normal = np.maximum(normal, 0.5 * ((a - c) ** 2 + (c - d) ** 2 + (d - a) ** 2))
     return np.asarray(np.sqrt(normal + 3.0 * (b[..., 3:] ** 2).sum(axis=-1)))
-
-
-def _von_mises(s: NDArray[np.float64]) -> NDArray[np.float64]:
-    a, b, c = s[..., 0], s[..., 1], s[..., 2]
-    q = 0.5 * ((a - b) ** 2 + (b - c) ** 2 + (c - a) ** 2) + 3.0 * (s[..., 3:] ** 2).sum(-1)
-    return np.asarray(np.sqrt(q))
 
 
 def far_field_bound(contact: Literal["point", "line"], nu: float, distance: float) -> float:
@@ -184,8 +179,8 @@ def _elastic_derivatives(elastic: ElasticField, x: NDArray[np.float64], axes: li
             middle[forward] = elastic(*centre[forward].T)
         slope = np.where(forward[:, None], (-3 * before + 4 * middle - after) / (2 * h),
                          (after - before) / (2 * h))
-        first[:, k] = _von_mises(slope)
-        second[:, k] = _von_mises((before - 2 * middle + after) / (h * h))
+        first[:, k] = von_mises(slope)
+        second[:, k] = von_mises((before - 2 * middle + after) / (h * h))
     return first, second
 
 
@@ -206,7 +201,7 @@ def _cell_bounds(elastic: ElasticField | None, field: SteadyResidualField,
         inner = np.array(list(product(DERIVATIVE_POINTS, repeat=3)))
         points = (lo[:, None] + size[:, None] * inner[None]).reshape(-1, 3)
         first, second = _elastic_derivatives(elastic, points, axes)
-    g = _von_mises(sigma).reshape(m, 8)
+    g = von_mises(sigma).reshape(m, 8)
     centre = lo + size / 2
     rho_bounds = von_mises_of_bounds(field.derivative_bounds(coefficients, centre[:, 1],
                                                              centre[:, 2]))

@@ -27,8 +27,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from sacflow.kernels.cuboid import SHEAR_WEIGHTS
 
-__all__ = ["COMPONENTS", "deviator", "deviatoric_equivalent",
-           "double_contraction", "equivalent_strain", "equivalent_stress", "von_mises"]
+__all__ = ["COMPONENTS", "deviator", "deviatoric_equivalent", "double_contraction",
+           "equivalent_strain", "equivalent_stress", "squared_von_mises_and_gradient",
+           "von_mises"]
 
 #: Labels of the six tensor components, in the order of the last axis.
 COMPONENTS: tuple[str, ...] = ("11", "22", "33", "12", "13", "23")
@@ -92,6 +93,21 @@ def von_mises(stress: ArrayLike) -> NDArray[np.float64]:
     shear = s[..., 3] ** 2 + s[..., 4] ** 2 + s[..., 5] ** 2
     out: NDArray[np.float64] = np.sqrt(0.5 * d + 3.0 * shear)
     return out
+
+
+def squared_von_mises_and_gradient(
+    stress: NDArray[np.float64],
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Return σ_vM² of (..., 6) stresses (the form of :func:`von_mises`) and its gradient.
+
+    The gradient is with respect to the six components (11, 22, 33, 12, 13, 23), the shear
+    ones counted once: what an optimiser over stress components needs (Melan's theorem,
+    :mod:`sacflow.mechanics.shakedown`).
+    """
+    a, b, c, d, e, f = (stress[..., i] for i in range(6))
+    q = 0.5 * ((a - b) ** 2 + (b - c) ** 2 + (c - a) ** 2) + 3.0 * (d * d + e * e + f * f)
+    grad = np.stack([2 * a - b - c, 2 * b - c - a, 2 * c - a - b, 6 * d, 6 * e, 6 * f], axis=-1)
+    return q, grad
 
 
 def equivalent_stress(stress: NDArray[np.float64]) -> NDArray[np.float64]:
