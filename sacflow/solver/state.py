@@ -12,6 +12,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from sacflow.mechanics.stress_measures import COMPONENTS  # the (..., 6) order, re-exported
+
 __all__ = [
     "COMPONENTS",
     "OPTIONAL_RESTART_FIELDS",
@@ -24,9 +26,6 @@ __all__ = [
     "SURFACE_FIELDS",
     "VOLUME_FIELDS",
 ]
-
-#: Tensor component order of every (..., 6) array (seed appendix 1 order).
-COMPONENTS: tuple[str, ...] = ("11", "22", "33", "12", "13", "23")
 
 #: Components of the surface shear traction (``shear_traction``): along x1 and along x2.
 TRACTION_COMPONENTS: tuple[str, ...] = ("1", "2")
