@@ -413,3 +413,30 @@ def test_no_fftw_wisdom_with_the_cache_off(tmp_path, monkeypatch):
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
     assert _plan_in_a_process("off") == {"imported": False}
     assert list(tmp_path.rglob("fftw-wisdom-*")) == []
+
+
+def test_run_with_a_flipped_cached_spectrum_equals_a_run_without_the_cache(cache, tmp_path,
+                                                                           monkeypatch):
+    """Issue #31 end to end: high-order bytes flipped in a stored pressure-to-stress spectrum
+    ('spectra.npy') gave a finished run with stresses of 1e299. The damaged entry is computed
+    again, with a warning, and the run's results are those of a run without the cache."""
+    from pathlib import Path
+
+    import sacflow
+
+    config = Path(__file__).resolve().parents[1] / "configs" / "nanoindentation-650mN.toml"
+    small = ["grid.nx=16", "grid.ny=16", "grid.nz=4", "load_path.0.increments=2",
+             "load_path.1.increments=1"]
+    case = sacflow.load_case(config, small)
+    sacflow.run(case, tmp_path / "first", progress=False).close()  # stores the entries
+    (spectra,) = cache.glob("contact_stress-*/spectra.npy")
+    _flip_high_order_bytes(spectra, count=64)
+    with pytest.warns(RuntimeWarning, match=r"does not match its checksum\); computing it"):
+        cached = sacflow.run(case, tmp_path / "damaged", progress=False)
+    monkeypatch.setenv("SACFLOW_CACHE_DIR", "off")
+    uncached = sacflow.run(case, tmp_path / "uncached", progress=False)
+    with cached, uncached:
+        assert np.isfinite(cached["stress"].values).all()
+        for name in ("stress", "pressure", "plastic_strain"):
+            np.testing.assert_array_equal(cached[name].values, uncached[name].values,
+                                          err_msg=name)
