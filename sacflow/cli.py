@@ -242,10 +242,17 @@ def _cache(args: argparse.Namespace) -> int:
     if root is None:
         print("kernel cache: off (SACFLOW_CACHE_DIR)")
         return 0
+    if root.exists() and not root.is_dir():
+        _error(f"the kernel cache {root} is a file, not a directory: set SACFLOW_CACHE_DIR "
+               "to a directory (or to 'off')")
+        return EXIT_CONFIG
     if args.action == "clear":
-        count, nbytes = clear_cache(root)
-        print(f"kernel cache {root}: removed {count} entries, {format_bytes(nbytes)}")
-        return 0
+        report = clear_cache(root)
+        print(f"kernel cache {root}: removed {report.removed} entries, "
+              f"{format_bytes(report.removed_bytes)}")
+        for path, reason in report.not_removed:
+            _error(f"could not remove {path}: {reason}")
+        return EXIT_RUN_FAILED if report.not_removed else 0
     entries = list_entries(root)
     total = sum(entry.nbytes for entry in entries)
     print(f"kernel cache {root}: {len(entries)} entries, {format_bytes(total)} "

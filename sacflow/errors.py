@@ -47,6 +47,9 @@ class ConvergenceError(SacflowError):
         Tolerance that was asked for.
     iterations : int or None
         Number of iterations done, if known.
+    advice : str or None
+        What to do, when the loop knows better than the default (raise the iteration limit or
+        refine the load increments), e.g. a residual that stopped falling.
     """
 
     def __init__(
@@ -56,24 +59,26 @@ class ConvergenceError(SacflowError):
         residual: float,
         tolerance: float,
         iterations: int | None = None,
+        advice: str | None = None,
     ) -> None:
         self.what = what
         self.step = step
         self.residual = residual
         self.tolerance = tolerance
         self.iterations = iterations
+        self.advice = advice
         after = f" after {iterations} iterations" if iterations is not None else ""
+        hint = advice or f"raise solver.{what}_max_iterations or refine the load increments"
         super().__init__(
             f"{what} iteration did not converge at step {step}{after}: "
-            f"residual {residual:.3e} > tolerance {tolerance:.3e} "
-            f"(raise solver.{what}_max_iterations or refine the load increments)"
+            f"residual {residual:.3e} > tolerance {tolerance:.3e} ({hint})"
         )
 
     def __reduce__(self) -> tuple[type, tuple[object, ...]]:
         """Keep the exception picklable (dask workers send it back)."""
         return (
             type(self),
-            (self.what, self.step, self.residual, self.tolerance, self.iterations),
+            (self.what, self.step, self.residual, self.tolerance, self.iterations, self.advice),
         )
 
 

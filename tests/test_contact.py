@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import pickle
+
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
@@ -131,6 +133,37 @@ def test_non_convergence_raises_named_error():
     with pytest.raises(ConvergenceError, match="contact.*step 7") as info:
         solve_contact(h, conv, area, load=W, tol=1e-14, max_iter=3, step=7)
     assert info.value.step == 7 and info.value.residual > 1e-14
+    assert "raise solver.contact_max_iterations" in str(info.value)  # the residual still falls
+
+
+@pytest.mark.parametrize("load_fraction", [1 / 40, 1 / 1000])
+def test_warm_start_on_one_cell_converges_to_the_cold_start_s_contact(load_fraction):
+    """Issue #31: a contact set whose gap is already uniform (one cell: its gap is the mean that
+    eliminates the approach) gave a zero conjugate-gradient step, and the overlapping free cells
+    never entered: 'did not converge after 2000 iterations' at any limit, a small first increment
+    failing where larger ones ran. They enter now; the solution is the cold start's."""
+    n = 16
+    h, conv, area, _, _ = hertz_problem(n)
+    one_cell = np.zeros_like(h)
+    one_cell[n // 2, n // 2] = 1.0
+    load = W * load_fraction
+    cold = solve_contact(h, conv, area, load=load)
+    warm = solve_contact(h, conv, area, load=load, initial_pressure=one_cell)
+    assert warm.error < 1e-10 and warm.load == pytest.approx(load, rel=1e-12)
+    assert np.array_equal(warm.pressure > 0, cold.pressure > 0)
+    assert_allclose(warm.pressure, cold.pressure, rtol=0, atol=1e-8 * cold.pressure.max())
+    assert_allclose(warm.approach, cold.approach, rtol=1e-8)
+
+
+def test_stalled_contact_says_more_iterations_will_not_help():
+    """A residual that stopped falling gets no advice to raise the iterations or refine the
+    increments (a rigid 'compliance': the step on the contact set is zero, nothing overlaps)."""
+    h, _, area, _, _ = hertz_problem(8)
+    with pytest.raises(ConvergenceError, match="stopped falling with 64 cells in contact: more "
+                       "iterations or smaller load increments will not help") as info:
+        solve_contact(h, np.zeros_like, area, load=W, max_iter=50, step=1)
+    assert "raise solver" not in str(info.value) and info.value.advice is not None
+    assert pickle.loads(pickle.dumps(info.value)).args == info.value.args
 
 
 @pytest.mark.parametrize("tol", [1e-4, 1e-7, 1e-10])

@@ -174,6 +174,67 @@ def test_damaged_entry_is_computed_again_with_a_warning(cache):
             kernel_cache.cached_arrays("test", {"n": 1}, arrays)["b"], arrays()["b"])
 
 
+def _flip_high_order_bytes(path, count: int = 8) -> None:
+    """Flip the exponent byte of ``count`` float64 values in the data of a ``.npy`` file."""
+    data_start = os.path.getsize(path) - np.load(path, mmap_mode="r").nbytes
+    with open(path, "r+b") as fh:
+        for k in range(count):
+            fh.seek(data_start + 8 * (3 * k + 1) + 7)  # little-endian: byte 7 holds the exponent
+            byte = fh.read(1)[0]
+            fh.seek(-1, os.SEEK_CUR)
+            fh.write(bytes([byte ^ 0x7C]))
+
+
+def test_flipped_bits_in_an_entry_are_found_and_the_operator_computed_again(cache, monkeypatch):
+    """Issue #31: flipping exponent bytes in a cached spectrum gave stresses of 1e299 and a
+    finished run. The checksum finds it; the operator is computed again, with a warning, and
+    its stresses are those of an operator computed without the cache, bit for bit."""
+    shape, spacing = (9, 8, 5), (1.0e-6, 1.2e-6, 0.6e-6)
+    eps = np.random.default_rng(1).standard_normal((*shape, 6)) * 1e-3
+    HalfSpaceEigenstrain(shape, spacing, E, NU)  # computed and stored
+    (entry,) = kernel_cache.list_entries(cache)
+    damaged = sorted(entry.path.glob("*.npy"))[0]
+    _flip_high_order_bytes(damaged)
+    with pytest.warns(RuntimeWarning, match=r"does not match its checksum\); computing it again"):
+        recomputed = HalfSpaceEigenstrain(shape, spacing, E, NU)
+    monkeypatch.setenv("SACFLOW_CACHE_DIR", "off")
+    uncached = HalfSpaceEigenstrain(shape, spacing, E, NU)
+    s1, u1 = recomputed.residual_stress(eps, with_displacement=True)
+    s2, u2 = uncached.residual_stress(eps, with_displacement=True)
+    np.testing.assert_array_equal(s1, s2)
+    np.testing.assert_array_equal(u1, u2)
+    monkeypatch.setenv("SACFLOW_CACHE_DIR", str(cache))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # stored again, whole, and verified on this load
+        loaded = HalfSpaceEigenstrain(shape, spacing, E, NU)
+    np.testing.assert_array_equal(loaded.residual_stress(eps), s2)
+
+
+def test_entry_without_a_checksum_is_computed_again_with_a_warning(cache):
+    """An entry written before the checksums cannot be verified: computed again, once."""
+    import json
+
+    kernel_cache.cached_arrays("test", {"n": 1}, arrays)
+    (entry,) = kernel_cache.list_entries(cache)
+    record = json.loads((entry.path / "entry.json").read_text())
+    del record["checksum"]
+    for spec in record["arrays"].values():
+        del spec[kernel_cache.CHECKSUM_ALGORITHM]
+    (entry.path / "entry.json").write_text(json.dumps(record))
+    with pytest.warns(RuntimeWarning, match="without a checksum"):
+        kernel_cache.cached_arrays("test", {"n": 1}, arrays)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        out = kernel_cache.cached_arrays("test", {"n": 1}, lambda: pytest.fail("recomputed"))
+    np.testing.assert_array_equal(out["b"], arrays()["b"])
+
+
+def test_checksum_is_that_of_the_file_written(cache, tmp_path):
+    array = np.random.default_rng(2).standard_normal((5, 7, 3))
+    path = tmp_path / "x.npy"
+    assert kernel_cache.write_npy(path, array) == kernel_cache.file_checksum(path)
+
+
 def test_record_of_other_parameters_is_not_used(cache):
     kernel_cache.cached_arrays("test", {"n": 1}, arrays)
     (entry,) = kernel_cache.list_entries(cache)
@@ -213,9 +274,40 @@ def test_clear_removes_entries_and_leftovers(cache):
         kernel_cache.cached_arrays("test", {"n": n}, arrays)
     (cache / f".test-{'a' * 24}.x1y2").mkdir()  # an interrupted write (tempfile.mkdtemp)
     (cache / f".trash-test-{'b' * 24}-123").mkdir()  # an interrupted removal
-    count, nbytes = kernel_cache.clear_cache(cache)
-    assert count == 2 and nbytes > 0
+    report = kernel_cache.clear_cache(cache)
+    assert report.removed == 2 and report.removed_bytes > 0 and report.not_removed == ()
     assert list(cache.iterdir()) == []
+
+
+def test_clear_of_a_read_only_cache_says_what_it_could_not_remove(cache, monkeypatch, capsys):
+    """Issue #31: on a read-only cache, clear said 'removed 1 entries, 48.4 MiB' (rc 0)."""
+    kernel_cache.cached_arrays("test", {"n": 1}, arrays)
+    (entry,) = kernel_cache.list_entries(cache)
+
+    def read_only(src, dst):
+        raise OSError(errno.EROFS, "Read-only file system", str(src))
+
+    monkeypatch.setattr(kernel_cache.os, "rename", read_only)
+    report = kernel_cache.clear_cache(cache)
+    assert (report.removed, report.removed_bytes) == (0, 0)
+    assert report.not_removed == ((entry.path, "Read-only file system"),)
+    assert main(["cache", "clear"]) == 1
+    captured = capsys.readouterr()
+    assert "removed 0 entries, 0 B" in captured.out
+    assert f"could not remove {entry.path}: Read-only file system" in captured.err
+    assert kernel_cache.list_entries(cache) == [entry]
+
+
+def test_cache_directory_that_is_a_file_is_a_clear_error(tmp_path, monkeypatch, capsys):
+    blocker = tmp_path / "a-file"
+    blocker.write_text("not a directory")
+    monkeypatch.setenv("SACFLOW_CACHE_DIR", str(blocker))
+    with pytest.raises(NotADirectoryError, match="not a directory"):
+        kernel_cache.clear_cache(blocker)
+    for action in (["cache"], ["cache", "clear"]):
+        assert main(action) == 2
+        assert f"the kernel cache {blocker} is a file, not a directory" in capsys.readouterr().err
+    assert blocker.read_text() == "not a directory"
 
 
 def test_clear_keeps_what_the_cache_did_not_write(cache):
@@ -226,8 +318,7 @@ def test_clear_keeps_what_the_cache_did_not_write(cache):
         folder.mkdir()
         (folder / "entry.json").write_text("{}")  # even with a file named like the record
     (cache / "data.npy").write_bytes(b"x")
-    count, _ = kernel_cache.clear_cache(cache)
-    assert count == 1
+    assert kernel_cache.clear_cache(cache).removed == 1
     assert sorted(p.name for p in cache.iterdir()) == sorted(
         [*(p.name for p in mine), "data.npy"])
 
@@ -312,7 +403,7 @@ def test_fftw_wisdom_is_kept_for_the_next_process(tmp_path):
     path.write_text("not wisdom")
     assert _plan_in_a_process(str(root)) == {"imported": False}
     assert _plan_in_a_process(str(root)) == {"imported": True}
-    assert kernel_cache.clear_cache(root) == (0, 0)
+    assert kernel_cache.clear_cache(root) == kernel_cache.ClearReport(0, 0)
     assert list(root.iterdir()) == []
 
 
@@ -322,3 +413,30 @@ def test_no_fftw_wisdom_with_the_cache_off(tmp_path, monkeypatch):
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
     assert _plan_in_a_process("off") == {"imported": False}
     assert list(tmp_path.rglob("fftw-wisdom-*")) == []
+
+
+def test_run_with_a_flipped_cached_spectrum_equals_a_run_without_the_cache(cache, tmp_path,
+                                                                           monkeypatch):
+    """Issue #31 end to end: high-order bytes flipped in a stored pressure-to-stress spectrum
+    ('spectra.npy') gave a finished run with stresses of 1e299. The damaged entry is computed
+    again, with a warning, and the run's results are those of a run without the cache."""
+    from pathlib import Path
+
+    import sacflow
+
+    config = Path(__file__).resolve().parents[1] / "configs" / "nanoindentation-650mN.toml"
+    small = ["grid.nx=16", "grid.ny=16", "grid.nz=4", "load_path.0.increments=2",
+             "load_path.1.increments=1"]
+    case = sacflow.load_case(config, small)
+    sacflow.run(case, tmp_path / "first", progress=False).close()  # stores the entries
+    (spectra,) = cache.glob("contact_stress-*/spectra.npy")
+    _flip_high_order_bytes(spectra, count=64)
+    with pytest.warns(RuntimeWarning, match=r"does not match its checksum\); computing it"):
+        cached = sacflow.run(case, tmp_path / "damaged", progress=False)
+    monkeypatch.setenv("SACFLOW_CACHE_DIR", "off")
+    uncached = sacflow.run(case, tmp_path / "uncached", progress=False)
+    with cached, uncached:
+        assert np.isfinite(cached["stress"].values).all()
+        for name in ("stress", "pressure", "plastic_strain"):
+            np.testing.assert_array_equal(cached[name].values, uncached[name].values,
+                                          err_msg=name)

@@ -12,6 +12,7 @@ import json
 import os
 import subprocess
 import sys
+import warnings
 from pathlib import Path
 
 import pytest
@@ -219,3 +220,28 @@ def test_process_limit_left_is_the_smaller_of_the_limits():
     result = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
                             timeout=60, check=True)
     assert 2**28 - 2**24 < int(result.stdout) <= 2**28, "ulimit -d, the smaller room, counts"
+
+
+def test_fft_threads_above_the_cores_are_capped_with_a_warning(monkeypatch, capsys):
+    """Issue #31: SACFLOW_FFT_THREADS=100000 made the estimate 2 TiB (per-thread set-up
+    buffers times 100000) and refused the case. Now capped at the usable cores, with a warning
+    naming the variable, the cores and the fix; the estimate is that of that many threads."""
+    from sacflow.kernels.eigenstrain_memory import setup_bytes
+    from sacflow.kernels.fft import default_threads
+    from sacflow.machine import environment, resources
+
+    monkeypatch.setattr(resources, "usable_cores", lambda: 2)
+    monkeypatch.setattr(environment, "WARNED_FFT_THREADS", set())
+    monkeypatch.setenv("SACFLOW_FFT_THREADS", "100000")
+    with pytest.warns(RuntimeWarning, match=r"SACFLOW_FFT_THREADS=100000 is more than the 2 "
+                      r"cores.*using 2 threads \(set it to at most 2, or unset it"):
+        assert default_threads() == 2
+    shape = (64, 64, 24)
+    assert setup_bytes(shape) == setup_bytes(shape, threads=2)
+    monkeypatch.setenv("SACFLOW_FFT_THREADS", "2")  # at the cores: no warning
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert default_threads() == 2
+    monkeypatch.setenv("SACFLOW_FFT_THREADS", "100000")
+    assert main(["validate", str(CONFIGS / "nanoindentation-650mN.toml")]) == 0
+    assert "OK nanoindentation-650mN" in capsys.readouterr().out

@@ -170,7 +170,9 @@ def test_bad_fftw_planner_variable(tmp_path, capsys, monkeypatch):
 
 def test_fft_threads_variable_read_by_the_operators(monkeypatch):
     from sacflow.kernels.fft import default_threads
+    from sacflow.machine import resources
 
+    monkeypatch.setattr(resources, "usable_cores", lambda: 8)
     monkeypatch.setenv("SACFLOW_FFT_THREADS", "3")
     assert default_threads() == 3
     monkeypatch.setenv("SACFLOW_FFT_THREADS", "zero")

@@ -13,13 +13,13 @@ Conventions
 
 from __future__ import annotations
 
-import os
 import sys
 from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 
+from sacflow.machine import resources
 from sacflow.machine.environment import fft_threads_from_env, fftw_planner_from_env
 
 #: Optional modules pyfftw's package imports for its interfaces, which sacflow does not use:
@@ -73,16 +73,14 @@ _THREADED_POINTS = 1 << 18
 def default_threads() -> int:
     """Return the number of FFT threads: ``SACFLOW_FFT_THREADS`` or the number of usable cores.
 
+    The variable is capped at the usable cores (with a warning), see
+    :func:`~sacflow.machine.environment.fft_threads_from_env`.
+
     A value that is not a whole number >= 1 raises
     :class:`~sacflow.errors.EnvironmentVariableError` (see :mod:`sacflow.machine.environment`).
     """
     from_env = fft_threads_from_env()
-    if from_env is not None:
-        return from_env
-    try:
-        return max(1, len(os.sched_getaffinity(0)))
-    except AttributeError:  # pragma: no cover - not on Linux
-        return max(1, os.cpu_count() or 1)
+    return resources.usable_cores() if from_env is None else from_env
 
 
 def _new_plan(*args: Any, **kwargs: Any) -> FFTWPlan:

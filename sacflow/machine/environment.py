@@ -5,7 +5,9 @@ sacflow reads four variables (all optional; unset or empty means the default):
 ``SACFLOW_FFT_THREADS``
     Threads of the FFTs and of the eigenstrain operators' spectral products: a whole number
     >= 1 (default: every usable core; campaign workers set 1). ``solver.fft_threads`` of a case
-    takes precedence.
+    takes precedence. A number above the usable cores is capped at them, with a warning: more
+    threads than cores only slow the FFTs down, and each thread takes its own buffers in the
+    kernels' set-up (the memory estimate counts them).
 ``SACFLOW_FFTW_PLANNER``
     FFTW planner rigour: ``estimate`` or ``measure`` (case-insensitive; default: measured plans
     for large transforms, estimated ones for small transforms).
@@ -28,8 +30,10 @@ from __future__ import annotations
 
 import os
 import re
+import warnings
 
 from sacflow.errors import EnvironmentVariableError
+from sacflow.machine import resources
 
 __all__ = [
     "CACHE_DIR_ENV",
@@ -60,6 +64,10 @@ PLANNER_CHOICES: tuple[str, ...] = ("estimate", "measure")
 _WHOLE_NUMBER = re.compile(r"[0-9]+")
 
 
+#: Values of :data:`FFT_THREADS_ENV` already warned about as above the cores (one warning each).
+WARNED_FFT_THREADS: set[str] = set()
+
+
 def _value(name: str) -> str | None:
     """Return the stripped value of ``name``; None when unset or empty (the default applies)."""
     value = os.environ.get(name, "").strip()
@@ -68,6 +76,9 @@ def _value(name: str) -> str | None:
 
 def fft_threads_from_env() -> int | None:
     """``SACFLOW_FFT_THREADS`` as a thread count >= 1, or None when it is unset or empty.
+
+    A count above :func:`~sacflow.machine.resources.usable_cores` is capped at it, with a
+    ``RuntimeWarning`` naming the variable, the cores and the fix.
 
     Raises
     ------
@@ -83,6 +94,15 @@ def fft_threads_from_env() -> int | None:
             f"set it to a whole number >= 1 (e.g. export {FFT_THREADS_ENV}=2) "
             f"or unset it to use every core"
         )
+    cores = resources.usable_cores()
+    if int(value) > cores:
+        if value not in WARNED_FFT_THREADS:  # once per process: the variable is read often
+            WARNED_FFT_THREADS.add(value)
+            warnings.warn(
+                f"environment variable {FFT_THREADS_ENV}={value} is more than the {cores} cores "
+                f"this process may use; using {cores} threads (set it to at most {cores}, or "
+                f"unset it to use every core)", RuntimeWarning, stacklevel=2)
+        return cores
     return int(value)
 
 

@@ -21,8 +21,15 @@ Safe concurrent use (campaign workers share the cache): an entry is written into
 temporary directory, flushed, and renamed into place in one step; when two processes compute
 the same entry the second rename fails and that process keeps its own arrays. An entry is
 removed by renaming it away first, so a reader sees a whole entry or none; files already
-mapped stay valid after removal (POSIX). A damaged entry (unreadable, or arrays not matching
-its record) is removed and computed again.
+mapped stay valid after removal (POSIX).
+
+Integrity: the record holds a checksum of every array file (xxHash's XXH3, 64 bits, of the file's
+bytes, computed from the arrays while they are written), and an entry is verified against it
+the first time a process loads it (every byte is read once; the pages are then in memory for
+the solver, which reads them all anyway). A damaged entry (unreadable, truncated, a flipped
+bit, arrays not matching its record) is removed and computed again, with a warning. An entry
+written before the checksums existed (no checksum in its record) cannot be verified: it is
+treated as damaged and computed again (the warning says so), once.
 """
 
 from __future__ import annotations
@@ -43,6 +50,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import xxhash
 
 from sacflow.machine.environment import CACHE_OFF, cache_dir_from_env, cache_max_bytes_from_env
 
@@ -50,6 +58,7 @@ __all__ = [
     "DEFAULT_MAX_BYTES",
     "MIN_CACHED_BYTES",
     "CacheEntry",
+    "ClearReport",
     "cache_directory",
     "cached_arrays",
     "clear_cache",
@@ -63,6 +72,10 @@ DEFAULT_MAX_BYTES = 16 << 30
 #: 48 × 48 × 24 box), and the cache is kept for the grids whose set-up costs.
 MIN_CACHED_BYTES = 32 << 20
 _RECORD = "entry.json"
+#: Checksum of the array files, named in the record (:func:`file_checksum`).
+CHECKSUM_ALGORITHM = "xxh3_64"
+#: Bytes read and hashed per call when a file is verified: a buffer that stays in the CPU cache.
+_VERIFY_CHUNK_BYTES = 1 << 20
 #: Names the cache writes in its directory, and the only ones it ever removes (the directory may
 #: be one the user chose, holding other things): entries, their temporaries, removed entries.
 _ENTRY = re.compile(r"^[a-z0-9_]+-[0-9a-f]{24}$")
@@ -120,15 +133,56 @@ def _load(path: Path, kind: str, parameters: Mapping[str, Any]) -> dict[str, np.
     if record.get("kind") != kind or record.get("parameters") != json.loads(
             json.dumps(parameters)):
         raise ValueError("its record is for other parameters")
+    if record.get("checksum") != CHECKSUM_ALGORITHM:
+        raise ValueError("written without a checksum (by an older sacflow), it cannot be "
+                         "verified")
     arrays = {}
     for name, spec in record["arrays"].items():
-        array = np.load(path / f"{name}.npy", mmap_mode="r")
+        file = path / f"{name}.npy"
+        try:
+            array = np.load(file, mmap_mode="r")
+        except ValueError as exc:  # a truncated file, a damaged header
+            raise ValueError(f"damaged ({file.name}: {exc})") from exc
         if list(array.shape) != spec["shape"] or str(array.dtype) != spec["dtype"]:
-            raise ValueError(f"array {name} is not as recorded")
+            raise ValueError(f"damaged (array {name} is not as recorded)")
+        _verify(file, array, spec[CHECKSUM_ALGORITHM])
         arrays[name] = array
     with contextlib.suppress(OSError):
         os.utime(path / _RECORD)  # last use, for the eviction order
     return arrays
+
+
+#: Array files this process has verified, with the identity of the file it read (device,
+#: inode, size, modification time): an entry is verified once per process, not at every load.
+VERIFIED_FILES: set[tuple[str, int, int, int, int]] = set()
+
+
+def _verify(file: Path, array: np.ndarray, expected: str) -> None:
+    """Check ``file`` against its recorded checksum (once per process); ValueError if it differs.
+
+    The data are hashed through ``array``, the memory map the solver then reads: the pages are
+    faulted in once, by the checksum, and the solver's first touch finds them mapped.
+    """
+    stat = file.stat()
+    identity = (str(file), stat.st_dev, stat.st_ino, stat.st_size, stat.st_mtime_ns)
+    if identity in VERIFIED_FILES:
+        return
+    with open(file, "rb") as fh:
+        digest = xxhash.xxh3_64(fh.read(stat.st_size - array.nbytes))  # the header
+    digest.update(array.reshape(-1).view(np.uint8).data)
+    if digest.hexdigest() != expected:
+        raise ValueError(f"damaged ({file.name} does not match its checksum)")
+    VERIFIED_FILES.add(identity)
+
+
+def file_checksum(file: Path) -> str:
+    """Return the XXH3 64-bit checksum (hex) of the bytes of ``file``, read in chunks."""
+    digest = xxhash.xxh3_64()
+    buffer = bytearray(_VERIFY_CHUNK_BYTES)
+    with memoryview(buffer) as view, open(file, "rb", buffering=0) as fh:
+        while count := fh.readinto(buffer):
+            digest.update(view[:count])
+    return str(digest.hexdigest())
 
 
 def _npy_header(array: np.ndarray) -> bytes:
@@ -145,14 +199,16 @@ def _npy_header(array: np.ndarray) -> bytes:
     return prefix + (size - len(prefix) - 2).to_bytes(2, "little") + body
 
 
-def write_npy(path: Path, array: np.ndarray) -> None:
-    """Write ``array`` (C-contiguous) as a ``.npy`` file, flushed to the disk.
+def write_npy(path: Path, array: np.ndarray) -> str:
+    """Write ``array`` (C-contiguous) as a ``.npy`` file, flushed to the disk; return its checksum.
 
     Written with ``O_DIRECT`` where the system and the file system allow it: the bytes go from
     an aligned bounce buffer to the disk without a second copy in the page cache, which the
     process would fill (and the system then hold) with as many bytes as the entry: hundreds of
     MB at 128 × 128 × 64 cuboids (``docs/performance.md``). Elsewhere (no ``O_DIRECT``, a file
-    system that refuses it) a plain buffered write, the same file.
+    system that refuses it) a plain buffered write, the same file. The checksum
+    (:func:`file_checksum` of the file written) is computed from the bytes in memory, so the
+    file is not read back.
     """
     header = _npy_header(array)
     data = array.reshape(-1).view(np.uint8)
@@ -162,6 +218,9 @@ def write_npy(path: Path, array: np.ndarray) -> None:
             array.tofile(fh)
             fh.flush()
             os.fsync(fh.fileno())
+    digest = xxhash.xxh3_64(header)
+    digest.update(data.data)  # the bytes, not a copy
+    return str(digest.hexdigest())
 
 
 def _write_direct(path: Path, header: bytes, data: np.ndarray) -> bool:
@@ -229,9 +288,11 @@ def _store(root: Path, name: str, kind: str, parameters: Mapping[str, Any],
     try:
         shapes: dict[str, dict[str, Any]] = {}
         for array_name, array in arrays.items():
-            write_npy(temporary / f"{array_name}.npy", np.ascontiguousarray(array))
-            shapes[array_name] = {"shape": list(array.shape), "dtype": str(array.dtype)}
-        record = {"kind": kind, "parameters": parameters, "arrays": shapes}
+            checksum = write_npy(temporary / f"{array_name}.npy", np.ascontiguousarray(array))
+            shapes[array_name] = {"shape": list(array.shape), "dtype": str(array.dtype),
+                                  CHECKSUM_ALGORITHM: checksum}
+        record = {"kind": kind, "parameters": parameters, "checksum": CHECKSUM_ALGORITHM,
+                  "arrays": shapes}
         (temporary / _RECORD).write_text(json.dumps(record, indent=1))
         try:
             os.rename(temporary, root / name)
@@ -242,14 +303,20 @@ def _store(root: Path, name: str, kind: str, parameters: Mapping[str, Any],
             shutil.rmtree(temporary, ignore_errors=True)
 
 
-def _remove(path: Path) -> None:
-    """Remove an entry: renamed away first (readers see all of it or none), then deleted."""
+def _remove(path: Path) -> str | None:
+    """Remove an entry: renamed away first (readers see all of it or none), then deleted.
+
+    Returns None when the entry is gone (removed here, or already), else why it is not.
+    """
     trash = path.with_name(f".trash-{path.name}-{os.getpid()}")
     try:
         os.rename(path, trash)
-    except OSError:
-        return  # already gone
+    except FileNotFoundError:
+        return None  # already gone
+    except OSError as exc:
+        return exc.strerror or str(exc)
     shutil.rmtree(trash, ignore_errors=True)
+    return None
 
 
 def list_entries(root: Path | None = None) -> list[CacheEntry]:
@@ -272,25 +339,46 @@ def list_entries(root: Path | None = None) -> list[CacheEntry]:
     return sorted(entries, key=lambda e: e.last_used)
 
 
-def clear_cache(root: Path | None = None) -> tuple[int, int]:
-    """Remove every entry (and leftovers of interrupted writes); return (entries, bytes).
+@dataclass(frozen=True)
+class ClearReport:
+    """What :func:`clear_cache` did: the entries it removed, and those it could not, and why."""
+
+    removed: int
+    removed_bytes: int
+    not_removed: tuple[tuple[Path, str], ...] = ()
+
+
+def clear_cache(root: Path | None = None) -> ClearReport:
+    """Remove every entry (and leftovers of interrupted writes); report what went and what not.
 
     Only what the cache itself wrote is removed: a directory set by ``SACFLOW_CACHE_DIR`` that
-    holds anything else keeps it.
+    holds anything else keeps it. Only the entries actually removed are counted; an entry that
+    could not be removed (a read-only cache) is reported with the reason.
+
+    Raises
+    ------
+    NotADirectoryError
+        When ``root`` exists and is not a directory (``SACFLOW_CACHE_DIR`` naming a file).
     """
     root = cache_directory() if root is None else root
-    if root is None or not root.is_dir():
-        return 0, 0
-    entries = list_entries(root)
-    for entry in entries:
-        _remove(entry.path)
+    if root is None or not root.exists():
+        return ClearReport(0, 0)
+    if not root.is_dir():
+        raise NotADirectoryError(errno.ENOTDIR, "the kernel cache is not a directory", str(root))
+    removed, failed = [], []
+    for entry in list_entries(root):
+        reason = _remove(entry.path)
+        if reason is None:
+            removed.append(entry)
+        else:
+            failed.append((entry.path, reason))
     for leftover in root.iterdir():  # interrupted writes and removals (this cache's names only)
         if _LEFTOVER.match(leftover.name) and leftover.is_dir():
             shutil.rmtree(leftover, ignore_errors=True)
         elif _WISDOM.match(leftover.name) and leftover.is_file():  # FFTW's (kernels.fftw_wisdom)
             with contextlib.suppress(OSError):
                 leftover.unlink()
-    return len(entries), sum(e.nbytes for e in entries)
+    return ClearReport(len(removed), sum(e.nbytes for e in removed), tuple(failed))
 
 
 def _evict(root: Path, limit: int) -> None:
@@ -300,8 +388,8 @@ def _evict(root: Path, limit: int) -> None:
     for entry in entries:
         if total <= limit:
             break
-        _remove(entry.path)
-        total -= entry.nbytes
+        if _remove(entry.path) is None:
+            total -= entry.nbytes
 
 
 def cached_arrays(kind: str, parameters: Mapping[str, Any],
@@ -336,7 +424,8 @@ def cached_arrays(kind: str, parameters: Mapping[str, Any],
         try:
             return _load(path, kind, parameters)
         except (OSError, ValueError, KeyError) as exc:
-            warnings.warn(f"kernel cache entry {path} is damaged ({exc}); computing it again",
+            reason = str(exc) if isinstance(exc, ValueError) else f"damaged ({exc!r})"
+            warnings.warn(f"kernel cache entry {path} not used: {reason}; computing it again",
                           RuntimeWarning, stacklevel=2)
             _remove(path)
     arrays = compute()

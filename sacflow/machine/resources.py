@@ -1,4 +1,7 @@
-"""How much memory this process can still use: the one reader of the machine's memory.
+"""How much memory this process can still use, and on how many cores it may run.
+
+:func:`usable_cores` is the one reader of the cores this process may run on (its CPU
+affinity): the default FFT thread count, and the most threads worth asking for.
 
 Used by the memory estimate of a case (refusing grids the machine cannot hold), by the kernel
 set-up (choosing how many depth blocks to keep at once) and by campaigns (how many cases a
@@ -22,6 +25,7 @@ __all__ = [
     "PROC_STATUS",
     "available_memory",
     "process_limit_left",
+    "usable_cores",
 ]
 
 #: Where Linux says how much memory can be given to a process without swapping.
@@ -37,6 +41,14 @@ PROC_STATUS = Path("/proc/self/status")
 #: resident, so ``getrusage``'s peak resident size is not the use to subtract; ``RLIMIT_DATA``
 #: (``ulimit -d``) bounds the data segment and private writable mappings, ``VmData``.
 PROCESS_LIMITS = ((resource.RLIMIT_AS, "VmSize"), (resource.RLIMIT_DATA, "VmData"))
+
+
+def usable_cores() -> int:
+    """Return the number of cores this process may run on (its affinity mask), at least 1."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # pragma: no cover - not on Linux
+        return max(1, os.cpu_count() or 1)
 
 
 def _read_int(path: Path) -> int | None:

@@ -25,6 +25,10 @@ from sacflow.machine.threads import single_threaded_blas
 
 __all__ = ["ContactResult", "solve_contact"]
 
+#: At the iteration limit, a residual that fell by less than this factor over the last half of
+#: the iterations has stalled: more iterations would not help, and the message says so.
+_STALLED_REDUCTION = 2.0
+
 #: Recompute ``u = K p`` exactly at least every this many algebraic updates (round-off control:
 #: each update adds a relative error of order 1e-16 to ``u``; 32 keeps it far below the 1e-10
 #: tolerance while saving most of the refresh convolutions).
@@ -122,7 +126,7 @@ def _solve(
     u = compliance(p.reshape(shape)).ravel()
     exact_age = 0
     scale = max(float(np.ptp(h)), 1e-300)
-    error = np.inf
+    error = halfway_error = np.inf
     gap = np.empty_like(h)
     for iteration in range(max_iter + 1):
         np.add(h, u, out=gap)
@@ -133,14 +137,18 @@ def _solve(
         error = _gap_error(gap, g, mask, scale)
         if error < tol:
             break
+        if iteration == max_iter // 2:
+            halfway_error = error
         if iteration == max_iter:
-            raise ConvergenceError(
-                "contact", step=step, residual=error, tolerance=tol, iterations=max_iter
-            )
+            raise _not_converged(step, error, tol, max_iter, halfway_error, n_contact)
         g_norm_old = _search_direction(t, g, mask, conjugate, g_norm_old)
         r = compliance(t.reshape(shape)).ravel()
         tau = _step_length(r, t, g, mask, n_contact if load_control else None)
-        clipped, conjugate = _descend(p, t, gap, tau)
+        if tau == 0.0:  # nothing to move on the set: let the overlapping free cells in
+            _enter_overlap(p, gap, n_contact)
+            clipped, conjugate = False, False
+        else:
+            clipped, conjugate = _descend(p, t, gap, tau)
         rescale = 1.0
         if load is not None:
             rescale = _rescale_to_load(p, load, cell_area, step, tol, iteration)
@@ -253,6 +261,38 @@ def _descend(p: np.ndarray, t: np.ndarray, gap: np.ndarray, tau: float) -> tuple
     if not conjugate:
         p[overlap] -= tau * gap[overlap]
     return clipped, conjugate
+
+
+def _enter_overlap(p: np.ndarray, gap: np.ndarray, n_contact: float) -> None:
+    """Give the free cells that overlap the mean pressure of the contact set, in place.
+
+    The conjugate-gradient step on the contact set is zero when the gap is already uniform on
+    it: a set of one cell (its gap is the mean gap that eliminates δ under load control), or
+    cells of equal gaps by symmetry. Polonsky and Keer's update ``p -= τ g`` of the overlapping
+    cells then moves nothing, and the iteration would repeat the same state for ever (a warm
+    start of one loaded cell, a first increment of a few cells). Started at the set's mean
+    pressure, they join the set, and the next steps (load rescaled, clipped where they pull)
+    proceed as from a uniform start.
+    """
+    overlap = (p == 0.0) & (gap < 0.0)
+    p[overlap] = p.sum() / n_contact
+
+
+def _not_converged(step: int, error: float, tol: float, max_iter: int, halfway_error: float,
+                   n_contact: float) -> ConvergenceError:
+    """Return the error at the iteration limit, with advice that fits how the residual behaved.
+
+    A residual still falling: more iterations (or smaller increments) may do. One that fell by
+    less than :data:`_STALLED_REDUCTION` over the last half of the iterations has stalled:
+    neither more iterations nor smaller increments (a smaller contact) help.
+    """
+    advice = None
+    if error * _STALLED_REDUCTION > halfway_error:
+        advice = (f"the residual stopped falling with {int(n_contact)} cells in contact: more "
+                  f"iterations or smaller load increments will not help; a finer grid "
+                  f"(more cells across the contact) may, else report the case")
+    return ConvergenceError("contact", step=step, residual=error, tolerance=tol,
+                            iterations=max_iter, advice=advice)
 
 
 def _rescale_to_load(
