@@ -248,7 +248,7 @@ def _write(rows: list[dict[str, str]], new: dict[str, float]) -> None:
     writer = csv.DictWriter(buffer, COLUMNS, lineterminator="\n")
     writer.writeheader()
     for row in rows:
-        writer.writerow({**row, "value": f"{new[row['key']]:.6g}"} if row["key"] in new else row)
+        writer.writerow({**row, "value": f"{new[row['key']]:.10g}"} if row["key"] in new else row)
     TABLE.write_text("".join(header) + buffer.getvalue(), encoding="utf-8")
 
 
