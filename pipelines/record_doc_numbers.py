@@ -209,6 +209,27 @@ def dent_fatigue(out: Path) -> dict[str, float]:
     return numbers
 
 
+#: docs/repeated-rolling.md's Melan table: nominal p0/k -> (load [N], roll distance [m]) of
+#: configs/campaign-rolling-cycles.toml's sweep.
+CAMPAIGN_LOADS = {"4.5": (2722.6, 2.8295e-3), "5.0": (3734.7, 3.1438e-3)}
+
+
+def melan_on_runs(out: Path) -> dict[str, float]:
+    """``sacflow compare melan`` on two cases of campaign-rolling-cycles (six passes each)."""
+    from sacflow.compare import melan
+    from sacflow.runner import run_case
+
+    numbers = {}
+    for label, (load, distance) in CAMPAIGN_LOADS.items():
+        case = _case("configs/rolling-cycles-shakedown.toml", (
+            f"load_path.0.to={load}", f"load_path.1.distance={distance}",
+            f"name=rolling-cycles-{label}k"))
+        result = melan(run_case(case, out, progress=False).path)
+        numbers[f"melan_{label}k_load_factor"] = float(result["load_factor"])
+        numbers[f"melan_{label}k_peak"] = float(result["peak_pressure"])
+    return numbers
+
+
 #: group name -> (speed, function of the output folder returning {key: value in SI units}).
 GROUPS: dict[str, tuple[str, Callable[[Path], dict[str, float]]]] = {
     "hertz_elastic": ("fast", hertz_elastic),
@@ -221,6 +242,7 @@ GROUPS: dict[str, tuple[str, Callable[[Path], dict[str, float]]]] = {
     "seed_dent_rolling": ("slow", seed_dent_rolling),
     "shakedown": ("slow", shakedown),
     "dent_fatigue": ("slow", dent_fatigue),
+    "melan_on_runs": ("slow", melan_on_runs),
 }
 
 
