@@ -68,6 +68,20 @@ def press_hertz(out: Path) -> dict[str, float]:
             "press_steel_ball_a": steel.a, "press_steel_ball_p0": steel.p0}
 
 
+def closed_forms(out: Path) -> dict[str, float]:
+    """Hertz first yield at ν = 0.3 (``sacflow.mechanics.hertz.first_yield``) and the default
+    endurance limits' derived constants (``sacflow.compare.fatigue_index.DEFAULT_LIMITS``)."""
+    from sacflow.compare.fatigue_index import DEFAULT_LIMITS
+    from sacflow.mechanics.hertz import first_yield
+
+    p0_over_yield, depth_over_a, von_mises_over_p0 = first_yield(0.3)
+    return {"first_yield_p0_over_yield": p0_over_yield,
+            "first_yield_p0_over_k": p0_over_yield * np.sqrt(3.0),
+            "first_yield_depth": depth_over_a, "first_yield_von_mises": von_mises_over_p0,
+            "default_torsion_limit": DEFAULT_LIMITS.torsion,
+            "default_dang_van_a": DEFAULT_LIMITS.dang_van_a}
+
+
 def _iso_indices(first: float, last: float) -> dict[str, float]:
     from sacflow.compare.fatigue_index import DEFAULT_LIMITS
     from sacflow.mechanics.fatigue_criteria import fatigue_indices
@@ -233,6 +247,7 @@ def melan_on_runs(out: Path) -> dict[str, float]:
 #: group name -> (speed, function of the output folder returning {key: value in SI units}).
 GROUPS: dict[str, tuple[str, Callable[[Path], dict[str, float]]]] = {
     "hertz_elastic": ("fast", hertz_elastic),
+    "closed_forms": ("fast", closed_forms),
     "press_hertz": ("fast", press_hertz),
     "iso_fatigue_band": ("fast", iso_fatigue_band),
     "iso_fatigue_full": ("slow", iso_fatigue_full),
