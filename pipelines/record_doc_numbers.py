@@ -190,6 +190,14 @@ def dent_rolling_fields(path: Path) -> dict[str, float]:
     }
 
 
+def dent_rolling_traction(out: Path) -> dict[str, float]:
+    """docs/friction.md's μ = 0.2 column: configs/dent-rolling-traction.toml after the pass."""
+    from sacflow.runner import run_case
+
+    path = run_case(_case("configs/dent-rolling-traction.toml"), out, progress=False).path
+    return {f"traction_{key}": value for key, value in dent_rolling_fields(path).items()}
+
+
 def shakedown(out: Path) -> dict[str, float]:
     """pipelines/shakedown_bounds.py's line contact and sphere (whole class) brackets [k]."""
     sys.path.insert(0, str(ROOT / "pipelines"))
@@ -255,6 +263,7 @@ GROUPS: dict[str, tuple[str, Callable[[Path], dict[str, float]]]] = {
     "seed_indentation": ("slow", seed_indentation),
     "seed_dent_vertical": ("slow", seed_dent_vertical),
     "seed_dent_rolling": ("slow", seed_dent_rolling),
+    "dent_rolling_traction": ("slow", dent_rolling_traction),
     "shakedown": ("slow", shakedown),
     "dent_fatigue": ("slow", dent_fatigue),
     "melan_on_runs": ("slow", melan_on_runs),
