@@ -49,6 +49,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (SacflowError, OSError) as exc:
         _error(exc)
         return EXIT_RUN_FAILED
+    except MemoryError:  # an allocation the memory check did not foresee (another process's)
+        _error("out of memory: the machine could not give the run an array; the completed "
+               "steps are kept (run again to resume), or use fewer cells (grid.nx, grid.ny, "
+               "grid.nz) or a machine with more memory")
+        return EXIT_RUN_FAILED
     except KeyboardInterrupt:
         _error("interrupted; the completed steps are kept, run again to resume")
         return EXIT_INTERRUPTED

@@ -141,3 +141,17 @@ def test_run_documents_its_keyword_arguments():
         assert name in doc
     readme = (ROOT / "README.md").read_text()
     assert "sacflow.run(case, out_dir=" in readme and "overwrite=True" in readme
+
+
+def test_an_allocation_failure_names_the_resource_and_keeps_the_steps(tmp_path, monkeypatch,
+                                                                      capsys):
+    import sacflow.runner as runner
+
+    def no_memory(*args, **kwargs):
+        raise MemoryError("Unable to allocate 12.0 GiB for an array")
+
+    monkeypatch.setattr(runner, "run_case", no_memory)
+    code = main(["run", str(ROOT / "configs" / "hertz-elastic.toml"), "--out", str(tmp_path)])
+    err = capsys.readouterr().err
+    assert code == 1 and "out of memory" in err and "completed steps are kept" in err
+    assert "Traceback" not in err
