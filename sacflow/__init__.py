@@ -9,11 +9,11 @@ eigenstrain operators :func:`residual_stress`, :func:`residual_displacement`.
 
 from __future__ import annotations
 
+# Importing the storage layer installs the reader of the files a case's id covers (a measured
+# surface, a chained case's source run; sacflow.storage.fingerprints), so that a case built in a
+# notebook with ``Case(**data)`` has its id.
+from sacflow import storage  # noqa: F401
 from sacflow.lazy_exports import lazy_exports
-
-# The reader of the files a case's id covers (a measured surface, a chained case's source run):
-# installed with the package, so that a case built in a notebook with ``Case(**data)`` has its id.
-from sacflow.storage import fingerprints as _fingerprints  # noqa: F401  (installs the reader)
 
 __all__ = [
     "ConfigError",

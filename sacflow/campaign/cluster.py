@@ -21,7 +21,7 @@ from typing import Any
 
 from sacflow.errors import ConfigError, SacflowError
 from sacflow.machine.malloc import MALLOC_ENV
-from sacflow.machine.resources import available_memory
+from sacflow.machine.resources import available_memory, usable_cores
 
 __all__ = [
     "FFT_THREADS_ENV",
@@ -136,7 +136,7 @@ def connect(
     else:
         available = available_memory()
         fit = max(1, available // largest_task) if largest_task else tasks
-        n = min(workers or min(_cores(), fit), tasks)
+        n = min(workers or min(usable_cores(), fit), tasks)
         with _local_client(n) as client:
             yield client
 
@@ -276,13 +276,6 @@ def saved_environ(keys: Iterable[str]) -> Iterator[None]:
                 os.environ.pop(key, None)
             else:
                 os.environ[key] = value
-
-
-def _cores() -> int:
-    try:
-        return max(1, len(os.sched_getaffinity(0)))
-    except AttributeError:  # pragma: no cover - not on Linux
-        return max(1, os.cpu_count() or 1)
 
 
 def dashboard(client: Any, local: bool) -> str:

@@ -120,7 +120,7 @@ def fatigue(
     try:
         _check_history(ds)
         chosen = load_cycle(ds, cycle)
-        fields = _indices(ds.isel(step=chosen.positions), limits, max_memory, progress)
+        fields = _indices(ds.isel(step=chosen.steps), limits, max_memory, progress)
         return _result(ds, fields, limits, source, chosen)
     finally:
         if close:

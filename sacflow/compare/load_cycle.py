@@ -38,10 +38,19 @@ WHOLE_HISTORY = "all"
 
 @dataclass(frozen=True)
 class LoadCycle:
-    """Positions (along ``step``) of the steps of a cycle, and what the cycle is."""
+    """Positions (along ``step``) of the steps of a cycle, and what the cycle is.
+
+    Every cycle is a run of consecutive steps (a pass is, and so are the others):
+    :attr:`steps` selects it as a slice, which reads a stored history block by block.
+    """
 
     positions: np.ndarray
     description: str
+
+    @property
+    def steps(self) -> slice:
+        """The cycle's positions as a slice along ``step``."""
+        return slice(int(self.positions[0]), int(self.positions[-1]) + 1)
 
 
 def load_cycle(ds: xr.Dataset, cycle: str = AUTOMATIC) -> LoadCycle:
