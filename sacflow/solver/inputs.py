@@ -25,6 +25,7 @@ __all__ = [
     "ContactSpec",
     "Dent",
     "GridSpec",
+    "Inhomogeneity",
     "InitialConditions",
     "Material",
     "OutputPlan",
@@ -122,6 +123,43 @@ class ContactSpec:
     surface: MeasuredSurface | None = None
 
 
+#: Shapes an inhomogeneity may have (:class:`Inhomogeneity`).
+InhomogeneityShape = Literal["sphere", "ellipsoid", "cuboid", "cells"]
+
+
+@dataclass(frozen=True)
+class Inhomogeneity:
+    """An elastic inhomogeneity of body 1: a region with its own elastic constants.
+
+    Solved by Eshelby's equivalent inclusion method on the body's eigenstrain operators
+    (Mura, *Micromechanics of Defects in Solids*, §22): the region's cells carry an equivalent
+    eigenstrain ε* such that the homogeneous body with ε* has the inhomogeneous body's stress.
+
+    Attributes
+    ----------
+    shape : {"sphere", "ellipsoid", "cuboid", "cells"}
+        The region: a sphere or an ellipsoid with axes along x1, x2, x3 (cells whose centre is
+        inside), a cuboid (cells whose centre is inside), or the listed ``cells``.
+    centre : tuple of float
+        Centre (x1, x2, x3) [m], body-fixed, x3 the depth below the surface (positive).
+    semi_axes : tuple of float
+        Semi-axes (a1, a2, a3) [m] along x1, x2, x3: the radius three times for a sphere, the
+        half-sides for a cuboid; unused for ``cells``.
+    E, nu : float
+        Young's modulus [Pa] (a cavity: a vanishing one) and Poisson's ratio of the region.
+    cells : ndarray or None
+        For ``cells``: the centres (x1, x2, x3) [m] of the region's cells, shape (k, 3); each
+        point marks the body cell that contains it.
+    """
+
+    shape: InhomogeneityShape
+    centre: tuple[float, float, float]
+    semi_axes: tuple[float, float, float]
+    E: float
+    nu: float
+    cells: np.ndarray | None = None
+
+
 @dataclass(frozen=True)
 class SolverSettings:
     """Tolerances, iteration limits and choices of the increment's solvers.
@@ -129,7 +167,9 @@ class SolverSettings:
     ``anderson_depth`` is the Anderson mixing history depth, 0 for plain sweeps;
     ``scheme`` the coupled single fixed point or the seed's nested loops; ``fft_threads``
     the FFT threads (None: the machine's); ``residual_displacement_in_gap`` whether the
-    run's own residual surface displacement changes the contact gap.
+    run's own residual surface displacement changes the contact gap;
+    ``inclusion_tolerance`` and ``inclusion_max_iterations`` the relative residual and the
+    iteration limit of the Krylov solve of the inhomogeneities' equivalent eigenstrain.
     """
 
     contact_tolerance: float = 1e-10
@@ -142,6 +182,8 @@ class SolverSettings:
     anderson_depth: int = 5
     fft_threads: int | None = None
     residual_displacement_in_gap: bool = True
+    inclusion_tolerance: float = 1e-8
+    inclusion_max_iterations: int = 200
 
 
 @dataclass(frozen=True)
@@ -181,7 +223,8 @@ class InitialConditions:
 class SolverInputs:
     """Everything a :class:`~sacflow.solver.simulation.Simulation` needs.
 
-    ``steps`` is the expanded load path (:func:`~sacflow.solver.layout.plan_steps`).
+    ``steps`` is the expanded load path (:func:`~sacflow.solver.layout.plan_steps`);
+    ``inhomogeneities`` the elastic inhomogeneities of body 1 (none: a homogeneous body).
     """
 
     material: Material
@@ -191,3 +234,4 @@ class SolverInputs:
     output: OutputPlan
     steps: tuple[StepPlan, ...]
     initial: InitialConditions
+    inhomogeneities: tuple[Inhomogeneity, ...] = ()

@@ -20,6 +20,8 @@ __all__ = [
     "TRACTION_COMPONENTS",
     "RESTART_FIELDS",
     "GridCoords",
+    "INCLUSION_FIELDS",
+    "INCLUSION_SCALARS",
     "MeasuredSurface",
     "State",
     "SCALAR_FIELDS",
@@ -70,6 +72,14 @@ VOLUME_FIELDS: tuple[str, ...] = (
     "von_mises",
     "yield_stress",
 )
+
+#: Volume fields of a body with elastic inhomogeneities only: the equivalent eigenstrain of
+#: Eshelby's method, (nx1, nx2, nx3, 6), zero outside the inhomogeneities, and the phase of
+#: each cell, (nx1, nx2, nx3) integers (0 the matrix, k the k-th inhomogeneity of the case).
+INCLUSION_FIELDS: tuple[str, ...] = ("equivalent_eigenstrain", "phase")
+#: Per-step scalars of a body with elastic inhomogeneities only: the Krylov iterations of the
+#: equivalent-eigenstrain solves of the step (summed over its fixed-point iterations).
+INCLUSION_SCALARS: tuple[str, ...] = ("inclusion_iterations",)
 
 #: What the solver needs to go on after a step (true resume), each stored with the step:
 #: the body's internal variables (plastic strain tensor, equivalent plastic strain), the residual
@@ -150,6 +160,7 @@ class State:
     first_contact_offset: float | None = None
     pass_index: int = 0
     substeps: int = 1
+    inclusion_iterations: int = 0
 
     def scalars(self) -> dict[str, float | int | bool]:
         """Return the per-step scalars as a dict keyed by :data:`SCALAR_FIELDS`."""
