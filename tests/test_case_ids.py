@@ -8,6 +8,10 @@ from its file, every case of the campaign files expanded, each case made tiny wi
 a chained case (``initial_state``) whose source run stores a known id, and the path-named ids
 of a surface file and of a source run that do not exist. ``python
 pipelines/record_case_ids.py`` rewrites the table (only after a deliberate change of the id).
+
+The ids are those of the cases as they were then: with ``solver.return_integration =
+"backward_euler"``, the one-step return of every run before that option. At the option's new
+default (step doubling, other numbers) a plastic case has another id, an elastic one the same.
 """
 
 from __future__ import annotations
@@ -48,6 +52,12 @@ def _tiny(case: Case) -> Case:
     return case.model_copy(update={"grid": grid})
 
 
+def _backward_euler(case: Case) -> Case:
+    """``case`` with the one-step return: the numbers, and the id, of before the option."""
+    solver = case.solver.model_copy(update={"return_integration": "backward_euler"})
+    return case.model_copy(update={"solver": solver})
+
+
 def _names_a_file(data: dict) -> bool:
     """Tell whether a case table names a file (FILE_CASES give those files)."""
     return "initial_state" in data or data.get("surface", {}).get("kind") == "measured"
@@ -62,16 +72,22 @@ def _fake_source_run(folder: Path) -> Path:
 
 
 def case_ids(folder: Path) -> Iterator[tuple[str, str]]:
-    """Yield (label, case_id) of every recorded case; ``folder`` takes a fake source run."""
+    """Yield (label, case_id) of every recorded case as it was (:func:`_backward_euler`)."""
+    for label, case in cases(folder):
+        yield label, _backward_euler(case).case_id
+
+
+def cases(folder: Path) -> Iterator[tuple[str, Case]]:
+    """Yield (label, case) of every recorded case; ``folder`` takes a fake source run."""
     for path in SHIPPED:
         where = path.relative_to(ROOT).as_posix()
         if "sweep" in tomllib.loads(path.read_text()):
             for c in expand_campaign(load_campaign(path), str(path)):
-                yield f"{where}:{c.name}", c.case_id
+                yield f"{where}:{c.name}", c.case
         elif not _names_a_file(read_file(path)):
             case = load_case(path)
-            yield where, case.case_id
-            yield f"{where}:tiny", _tiny(case).case_id
+            yield where, case
+            yield f"{where}:tiny", _tiny(case)
     run = _fake_source_run(folder)
     for label, (path, override) in FILE_CASES.items():
         data = read_file(ROOT / path)
@@ -80,8 +96,8 @@ def case_ids(folder: Path) -> Iterator[tuple[str, str]]:
         value = str((ROOT / path).parent / value) if value.startswith("..") else value
         data[table][field] = value
         case = Case.model_validate(data)  # no file check: the source run is a fake
-        yield label, case.case_id
-        yield f"{label}:tiny", _tiny(case).case_id
+        yield label, case
+        yield f"{label}:tiny", _tiny(case)
 
 
 def test_case_ids_equal_the_recorded_ones(tmp_path):
@@ -92,3 +108,17 @@ def test_case_ids_equal_the_recorded_ones(tmp_path):
     assert now.keys() == recorded.keys()
     changed = {k: (recorded[k], v) for k, v in now.items() if v != recorded[k]}
     assert not changed, changed
+
+
+def test_the_return_integration_enters_the_id_of_plastic_cases_only(tmp_path):
+    """A plastic case's numbers depend on the return's integration, an elastic case's do not."""
+    checked = {"elastic": 0, "plastic": 0}
+    for label, case in cases(tmp_path):
+        old = _backward_euler(case).case_id
+        if case.body.hardening.law == "elastic":
+            assert case.case_id == old, label
+            checked["elastic"] += 1
+        else:
+            assert case.case_id != old, label
+            checked["plastic"] += 1
+    assert min(checked.values()) > 0, checked

@@ -36,6 +36,7 @@ __all__ = [
     "NOT_IN_IDENTITY",
     "OPTIONAL_SEGMENT_KEYS",
     "OPTIONAL_TABLES",
+    "PLASTIC_ONLY",
     "FileFingerprintReader",
     "FileFingerprints",
     "case_id_of",
@@ -58,7 +59,10 @@ OPTIONAL_TABLES: tuple[str, ...] = ("friction", "body.hardening.kinematic")
 #: case_id of a case that does not set them is the one it had before they existed).
 DEFAULTS_LEFT_OUT: dict[str, Any] = {"output.volume_precision": "float64",
                                      "output.every_step": [],
-                                     "solver.residual_displacement_in_gap": True}
+                                     "solver.residual_displacement_in_gap": True,
+                                     "solver.return_integration": "backward_euler"}
+#: Options that change no number of an elastic body, left out of its identity.
+PLASTIC_ONLY: tuple[str, ...] = ("solver.return_integration",)
 #: Load-path segment options added after runs were stored, left out of the identity when unset.
 OPTIONAL_SEGMENT_KEYS: tuple[str, ...] = ("passes", "between", "lift_increments")
 #: Hex digits of a case id.
@@ -148,7 +152,10 @@ def identity_of(data: dict[str, Any], fingerprints: FileFingerprints) -> dict[st
     -------
     dict
         ``data`` without :data:`NOT_IN_IDENTITY`, the optional segment keys when unset, the
-        optional tables when absent and :data:`DEFAULTS_LEFT_OUT` at their default; a measured
+        optional tables when absent, :data:`DEFAULTS_LEFT_OUT` at their default (the return
+        integration at the value that reproduces the runs stored before the option: a plastic
+        case at the new default gets a new id, its numbers changed) and, for an elastic body,
+        :data:`PLASTIC_ONLY`; a measured
         surface's path replaced by ``sha256:<digest>``, a source run by ``case_id:<id>``.
     """
     for dotted in NOT_IN_IDENTITY:
@@ -161,6 +168,9 @@ def identity_of(data: dict[str, Any], fingerprints: FileFingerprints) -> dict[st
         _drop(data, dotted, lambda value: value is None)
     for dotted, default in DEFAULTS_LEFT_OUT.items():  # the same, for options at default
         _drop(data, dotted, partial(operator.eq, default))
+    if data["body"]["hardening"]["law"] == "elastic":
+        for dotted in PLASTIC_ONLY:
+            _drop(data, dotted, lambda value: True)
     if data["surface"]["kind"] == "measured" and fingerprints.surface_digest:
         # the heights are what count: the same file moved keeps the id, an edited one not
         data["surface"]["path"] = f"sha256:{fingerprints.surface_digest}"

@@ -93,6 +93,14 @@ class SolverOptions(Model):
         "adds is left out), so the pressure is that of elastic contact, the load of classical "
         "shakedown analyses (Melan's theorem)",
     )
+    return_integration: Literal["extrapolated", "backward_euler"] = Field(
+        "extrapolated",
+        description="how the return mapping integrates the plastic flow over an increment: "
+        "'extrapolated' (default), backward Euler in one step and in two half steps along the "
+        "increment's straight strain path, extrapolated to second order in the increment "
+        "(step doubling); 'backward_euler', one fully implicit step (first order: the results "
+        "of sacflow before this option)",
+    )
 
 
 #: Fields that hold no information for an elastic body (zeros, an infinite yield stress): not

@@ -104,6 +104,7 @@ def solver_inputs(case: Case, surface: MeasuredSurface | None = None,
         anderson_depth=_anderson_depth(case),
         fft_threads=opts.fft_threads,
         residual_displacement_in_gap=opts.residual_displacement_in_gap,
+        return_integration=opts.return_integration,
     )
     output = OutputPlan(case.output.volume_every, tuple(case.output.every_step))
     conditions = InitialConditions(

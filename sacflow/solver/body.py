@@ -48,9 +48,12 @@ class ContactHistory:
     """The contact's memory along the load path.
 
     ``pressure`` is the last contact pressure on the window (the warm start of the next contact
-    solve; None when unloaded) and ``first_contact_offset`` the initial-gap offset of the first
-    contact [m] (the origin of the approach; None before it).
+    solve; None when unloaded), ``first_contact_offset`` the initial-gap offset of the first
+    contact [m] (the origin of the approach; None before it), and ``converged`` the contact
+    pressure of the last converged increment with the body-grid slices of its window (None
+    when that increment was unloaded): the load of the stress the next increment starts from.
     """
 
     pressure: np.ndarray | None = None
     first_contact_offset: float | None = None
+    converged: tuple[np.ndarray, tuple[slice, slice]] | None = None

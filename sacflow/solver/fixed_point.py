@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from sacflow.errors import ConvergenceError
+from sacflow.mechanics.return_extrapolation import extrapolated_return
 from sacflow.mechanics.return_mapping import ReturnResult, return_map
 from sacflow.mechanics.return_tangent import ReturnTangent
 from sacflow.solver.inputs import Material, SolverSettings
@@ -94,6 +95,7 @@ class PlasticFixedPoint:
         self, sigma: StressOf, x: np.ndarray, step: int, converged: Callable[[float], bool],
         what: str, state: tuple[np.ndarray, np.ndarray, np.ndarray | None],
         coupled: bool = False, pressure_follows: bool | None = None,
+        start_stress: np.ndarray | None = None,
     ) -> PlasticUpdate:
         """Solve ``x = G(x) = Δεp_return(σ(x) + 2μ x)`` from the start ``x`` (seed Fig. 4).
 
@@ -119,6 +121,14 @@ class PlasticFixedPoint:
         whether the pressure depends on ``x``; when the residual displacement is left out of
         the gap it does not, and the analytic Jacobian is exact in the coupled scheme too.
 
+        ``start_stress`` is the converged stress σ_n at the start of the increment: given, and
+        the settings' ``return_integration`` is ``"extrapolated"``, the return integrates the
+        flow along the increment's straight trial path by step doubling
+        (:func:`~sacflow.mechanics.return_extrapolation.extrapolated_return`, second order in
+        the increment); otherwise by one backward-Euler step. The analytic Jacobian is then the
+        one-step return's tangent: an approximation of the map's, which Newton–Krylov allows
+        (its steps are checked on ``G`` itself).
+
         Raises
         ------
         ConvergenceError
@@ -140,10 +150,10 @@ class PlasticFixedPoint:
             applications += apps
             trial = np.multiply(x, 2.0 * mu)  # σ + 2μx: box-size arrays, one temporary
             trial += stress
-            ret = self._return(trial, equivalent, backstress)
+            ret, full = self._return(trial, equivalent, backstress, start_stress)
             gx = ret.plastic_strain_increment
             scale = max(largest_magnitude(gx), largest_magnitude(x), strain_scale)
-            return Evaluation(gx, largest_magnitude(gx - x) / scale, (trial, ret))
+            return Evaluation(gx, largest_magnitude(gx - x) / scale, (trial, full, ret))
 
         def jacobian(x: np.ndarray, ev: Evaluation) -> LinearOperator:
             """``I − T (A + 2μ)``: ``T`` the return's algorithmic tangent, ``A`` residual stress."""
@@ -151,8 +161,8 @@ class PlasticFixedPoint:
                 operator: LinearOperator = difference_jacobian(
                     evaluate, x, ev, FD_STEP, max(float(np.abs(x).max()), strain_scale))
                 return operator
-            trial, ret = ev.data
-            tangent = self._tangent(trial, ret, equivalent, backstress)
+            trial, full, _ = ev.data
+            tangent = self._tangent(trial, full, equivalent, backstress)
 
             def matvec(v: np.ndarray) -> np.ndarray:
                 nonlocal applications
@@ -178,19 +188,29 @@ class PlasticFixedPoint:
             raise ConvergenceError(what, step=step, residual=exc.residual,
                                    tolerance=opts.plasticity_tolerance,
                                    iterations=exc.iterations) from None
-        ret = out.evaluation.data[1]
+        ret = out.evaluation.data[2]
         dx = out.x if coupled else ret.plastic_strain_increment
         return PlasticUpdate(dx, ret.equivalent_plastic_strain_increment, applications,
                              out.evaluation.residual, ret.backstress)
 
-    def _return(self, trial: np.ndarray, equivalent: np.ndarray,
-                backstress: np.ndarray | None) -> ReturnResult:
-        """Return-map the trial stress with the body's law: isotropic, or with the backstress."""
+    def _return(self, trial: np.ndarray, equivalent: np.ndarray, backstress: np.ndarray | None,
+                start_stress: np.ndarray | None) -> tuple[ReturnResult, ReturnResult]:
+        """Return-map the trial stress with the body's law: isotropic, or with the backstress.
+
+        Returns the return the fixed point uses (step-doubled from ``start_stress`` when the
+        settings ask for it) and the one-step backward-Euler return (the Jacobian's).
+        """
         if self.kinematic is None:
-            return return_map(trial, equivalent, self.law, self.mu, self.depth,
+            full = return_map(trial, equivalent, self.law, self.mu, self.depth,
                               with_stress=False)  # the increments are what it needs
-        return return_map(trial, equivalent, self.law, self.mu, self.depth,
-                          kinematic=self.kinematic, backstress=backstress)
+        else:
+            full = return_map(trial, equivalent, self.law, self.mu, self.depth,
+                              kinematic=self.kinematic, backstress=backstress)
+        if start_stress is None or self.settings.return_integration != "extrapolated":
+            return full, full
+        return extrapolated_return(start_stress, trial, equivalent, self.law, self.mu,
+                                   self.depth, kinematic=self.kinematic, backstress=backstress,
+                                   full=full)
 
     def _tangent(self, trial: np.ndarray, ret: ReturnResult, equivalent: np.ndarray,
                  backstress: np.ndarray | None) -> ReturnTangent:

@@ -5,7 +5,10 @@ Per load increment the solver finds the plastic strain increment ``Δεp`` that 
     Δεp = R( σ^pr(p) + σ^r(εp_old + Δεp) + 2μ Δεp ),
     p   = elastic contact on the gap  h_geometry + u3^r(εp_old + Δεp),
 
-where ``R`` is the fully implicit J2 return mapping (:mod:`sacflow.solver.fixed_point`),
+where ``R`` is the J2 return mapping over the increment (:mod:`sacflow.solver.fixed_point`:
+by default backward Euler with step doubling along the increment's straight trial path from
+the converged stress σ_n, second order in the increment,
+:mod:`sacflow.mechanics.return_extrapolation`; or one fully implicit step),
 ``σ^pr`` the stress of the contact pressure, ``σ^r`` the residual stress and ``u3^r`` the
 residual surface displacement of the plastic strain (:mod:`sacflow.kernels.eigenstrain`). The
 seed nests two loops (contact ↔ plastic strain, seed §1.7, Fig. 5); here both are one fixed
@@ -164,15 +167,31 @@ class IncrementSolver:
         if not self.plastic:
             result = solve(body.residual_displacement)
             return Increment(sl, geometry, result, None, contact_iterations, 0)
+        start = (self.start_stress(body, history)
+                 if self.settings.return_integration == "extrapolated" else None)
         fields = None
         if self.settings.scheme == "coupled":
-            result, update, fields, change = self.coupled(solve, sl, step, body, fixed is None)
+            result, update, fields, change = self.coupled(solve, sl, step, body, fixed is None,
+                                                          start)
         else:
-            result, update, change = self.nested(solve, sl, step, body)
+            result, update, change = self.nested(solve, sl, step, body, start)
         return Increment(sl, geometry, result,
                          (update.plastic_strain, update.equivalent_plastic_strain),
                          contact_iterations, update.applications, fields, update.residual, change,
                          update.backstress)
+
+    def start_stress(self, body: BodyState, history: ContactHistory) -> np.ndarray:
+        """Converged stress σ_n [Pa] at the start of the increment, (n1, n2, nz, 6).
+
+        The stress of the last converged contact pressure at its window, the residual stress of
+        the plastic strain and the initial stress: where the increment's trial path starts.
+        """
+        if history.converged is None:
+            return self.with_initial_stress(body.residual_stress.copy())
+        pressure, window = history.converged
+        stress = self.load_stress(pressure, window)
+        stress += body.residual_stress
+        return stress
 
     def _contact(self, h: np.ndarray, load: float, step: int,
                  pressure: np.ndarray | None) -> ContactResult:
@@ -185,7 +204,7 @@ class IncrementSolver:
 
     def coupled(
         self, solve: ContactSolve, sl: tuple[slice, slice], step: int, body: BodyState,
-        pressure_follows: bool,
+        pressure_follows: bool, start_stress: np.ndarray | None = None,
     ) -> tuple[ContactResult, PlasticUpdate, tuple[np.ndarray, np.ndarray], float]:
         """Plastic strain increment as one fixed point, the contact solved at every evaluation.
 
@@ -243,7 +262,7 @@ class IncrementSolver:
         try:
             update = self.fixed_point.solve(
                 sigma, x, step, converged, "plasticity", self._state(body), coupled=True,
-                pressure_follows=pressure_follows)
+                pressure_follows=pressure_follows, start_stress=start_stress)
         except ConvergenceError as exc:
             if exc.residual < opts.plasticity_tolerance:  # the residual displacement still moved
                 raise ConvergenceError("coupling", step=step, residual=last.change,
@@ -258,7 +277,8 @@ class IncrementSolver:
         return result, update, (stress, u), coupling
 
     def nested(self, solve: ContactSolve, sl: tuple[slice, slice], step: int,
-               body: BodyState) -> tuple[ContactResult, PlasticUpdate, float]:
+               body: BodyState, start_stress: np.ndarray | None = None,
+               ) -> tuple[ContactResult, PlasticUpdate, float]:
         """Run the seed's nested loops (Fig. 5): contact ↔ plastic fixed point at fixed pressure.
 
         The outer loop runs on the residual displacement (Anderson-accelerated); each inner
@@ -288,7 +308,7 @@ class IncrementSolver:
                 return res < tol
 
             update = self.fixed_point.solve(sigma, x, step, within, "plasticity",
-                                            self._state(body))
+                                            self._state(body), start_stress=start_stress)
             x, dp = update.plastic_strain, update.equivalent_plastic_strain
             applications += update.applications
             total = PlasticUpdate(x, dp, applications, update.residual, update.backstress)

@@ -169,7 +169,10 @@ class SolverSettings:
     the FFT threads (None: the machine's); ``residual_displacement_in_gap`` whether the
     run's own residual surface displacement changes the contact gap;
     ``inclusion_tolerance`` and ``inclusion_max_iterations`` the relative residual and the
-    iteration limit of the Krylov solve of the inhomogeneities' equivalent eigenstrain.
+    iteration limit of the Krylov solve of the inhomogeneities' equivalent eigenstrain;
+    ``return_integration`` how the return integrates the flow over an increment: by step
+    doubling along its straight trial path (``"extrapolated"``, second order,
+    :mod:`sacflow.mechanics.return_extrapolation`) or one backward-Euler step.
     """
 
     contact_tolerance: float = 1e-10
@@ -184,6 +187,7 @@ class SolverSettings:
     residual_displacement_in_gap: bool = True
     inclusion_tolerance: float = 1e-8
     inclusion_max_iterations: int = 200
+    return_integration: Literal["extrapolated", "backward_euler"] = "extrapolated"
 
 
 @dataclass(frozen=True)

@@ -222,8 +222,11 @@ class Simulation:
         else:
             body.residual_stress = np.zeros_like(body.plastic_strain)
         plan = self.steps[step]
-        window = arrays["pressure"][self.geometry.window_slices(plan.position)]
+        slices = self.geometry.window_slices(plan.position)
+        window = arrays["pressure"][slices]
         self.history.pressure = window.copy() if plan.load > 0.0 and window.any() else None
+        self.history.converged = (None if self.history.pressure is None
+                                  else (self.history.pressure.copy(), slices))
         self.history.first_contact_offset = first_contact_offset
 
     def solve_increment(self, step: int, plan: StepPlan) -> Increment:
@@ -289,6 +292,9 @@ class Simulation:
         if plan.load <= 0.0:
             self.history.pressure = None
         inc = self.solve_increment(step, plan)
+        self.history.converged = (
+            (inc.contact.pressure, inc.window) if plan.load > 0.0 and inc.contact.pressure.any()
+            else None)
         body = self.body
         if inc.update is not None and inc.update[0].any():
             deps, dp = inc.update
