@@ -2,7 +2,7 @@
 
     python pipelines/convergence.py [--cases NAME,...] [--sequences NAME,...] [--levels N]
         [--cache DIR] [--table CSV] [--summary CSV] [--plots DIR] [--overwrite]
-        [--set KEY=VALUE ...] [--quick] [--all]
+        [--set KEY=VALUE ...] [--quick] [--all] [--plan]
 
 For each case (:data:`sacflow.studies.convergence.STUDY_CASES`) and each refinement sequence
 (:data:`sacflow.studies.convergence.SEQUENCES`: lateral cells, layers, box depth, increments,
@@ -15,7 +15,10 @@ writes
 * the summary: observed order, Richardson limit, its uncertainty (GCI, F_s = 1.25) and the
   relative error of the shipped discretisation (``--summary``, default
   ``data/convergence-summary.csv``),
-* with ``--plots DIR``, the relative error against h (log-log) of each case and sequence.
+* with ``--plots DIR``, the relative error against h (log-log) of each case and sequence, and
+  the residual σ11 axis profile of its levels.
+
+``--plan`` lists the levels of each sequence, and which are already cached, and runs nothing.
 
 Each run's results are cached as one JSON file in ``--cache`` (default ``runs/convergence``),
 named by the case, the level and a hash of the case file, the overrides and the solver's source
@@ -61,6 +64,7 @@ from sacflow.studies.convergence_table import (
     SequenceResult,
     level_rows,
     plot_errors,
+    plot_profiles,
     summary_rows,
     write_csv,
 )
@@ -105,6 +109,8 @@ def parse(argv: list[str] | None) -> argparse.Namespace:
                         metavar="KEY=VALUE")
     parser.add_argument("--quick", action="store_true", help="tiny grids, for a check")
     parser.add_argument("--all", action="store_true", help="print every quantity")
+    parser.add_argument("--plan", action="store_true",
+                        help="list the levels (and which are cached), run nothing")
     args = parser.parse_args(argv)
     args.cases = [c.strip() for c in args.cases.split(",") if c.strip()]
     args.sequences = [s.strip() for s in args.sequences.split(",") if s.strip()]
@@ -125,7 +131,7 @@ def parse(argv: list[str] | None) -> argparse.Namespace:
 def study(args: argparse.Namespace) -> int:
     """Run (or read from the cache) every level, then write the tables and plots."""
     for path in (args.table, args.summary):
-        if path.exists() and not args.overwrite:
+        if path.exists() and not (args.overwrite or args.plan):
             raise SacflowError(f"{path} exists: give --overwrite to replace it, or another path")
     fingerprint = source_fingerprint()
     overrides = [*(QUICK if args.quick else ()), *args.overrides]
@@ -134,13 +140,21 @@ def study(args: argparse.Namespace) -> int:
         study_case = STUDY_CASES[name]
         base = shipped_discretisation(base_case(study_case, overrides))
         runner = LevelRunner(study_case, overrides, args.cache, fingerprint)
-        shipped = runner.quantities(base)
-        for seq_name in args.sequences:
-            refinement = SEQUENCES[seq_name]
-            levels = refinement.levels(base, args.levels)
-            results.append(SequenceResult(name, refinement, levels,
-                                          [runner.quantities(level) for level in levels],
-                                          shipped))
+        plan = {seq: SEQUENCES[seq].levels(base, args.levels) for seq in args.sequences}
+        if args.plan:
+            print_plan(runner, base, plan)
+            continue
+        shipped = runner.record(base)
+        for seq_name, levels in plan.items():
+            records = [runner.record(level) for level in levels]
+            results.append(SequenceResult(
+                name, SEQUENCES[seq_name], levels,
+                [None if r is None else r["quantities"] for r in records],
+                None if shipped is None else shipped["quantities"],
+                [None if r is None else r["converged"] for r in records],
+                [None if r is None else r["profile"] for r in records]))
+    if args.plan:
+        return 0
     levels_table = [row for r in results for row in level_rows(r)]
     summary = [row for r in results for row in summary_rows(r)]
     write_csv(args.table, levels_table, LEVEL_COLUMNS, args.overwrite)
@@ -150,6 +164,20 @@ def study(args: argparse.Namespace) -> int:
     if args.plots is not None:
         write_plots(results, args.plots)
     return 0
+
+
+def print_plan(runner: LevelRunner, base: Discretisation,
+               plan: dict[str, list[Discretisation]]) -> None:
+    """Print the levels of each sequence of one case, each marked cached or to run."""
+    def line(level: Discretisation) -> str:
+        state = "cached" if runner.path(level).exists() else "to run"
+        return (f"{level.nx:4d}² × {level.nz:3d} layers, depth {level.depth * 1e6:8.3f} µm, "
+                f"increments {'+'.join(map(str, level.increments)):>7s}: {state}")
+
+    print(f"{runner.study_case.name}: shipped {line(base)}")
+    for name, levels in plan.items():
+        for k, level in enumerate(levels):
+            print(f"  {name:10s} {k}: {line(level)}")
 
 
 class LevelRunner:
@@ -174,11 +202,11 @@ class LevelRunner:
         return self.cache / (f"{self.study_case.name}-nx{level.nx}-nz{level.nz}-"
                              f"d{level.depth * 1e6:.4g}um-inc{increments}-{digest}.json")
 
-    def quantities(self, level: Discretisation) -> dict[str, float] | None:
-        """The quantities of ``level``: cached, else run (None when the run fails)."""
+    def record(self, level: Discretisation) -> dict[str, Any] | None:
+        """The record of ``level`` (:meth:`run`): cached, else run (None when the run fails)."""
         path = self.path(level)
         if path.exists():
-            return dict(json.loads(path.read_text(encoding="utf-8"))["quantities"])
+            return dict(json.loads(path.read_text(encoding="utf-8")))
         label = f"{self.study_case.name} {path.stem.rsplit('-', 1)[0]}"
         print(f"running {label} ...", flush=True)
         try:
@@ -189,7 +217,7 @@ class LevelRunner:
         print(f"  {record['elapsed']:.1f} s, all steps converged: {record['converged']}",
               flush=True)
         write_json(path, record)
-        return dict(record["quantities"])
+        return record
 
     def run(self, level: Discretisation) -> dict[str, Any]:
         """Run ``level`` in this process and return its record."""
@@ -244,12 +272,15 @@ def _fmt(value: float, spec: str, suffix: str = "") -> str:
 
 
 def write_plots(results: Sequence[SequenceResult], folder: Path) -> None:
-    """Write ``<case>-<sequence>.png`` of each result into ``folder``."""
+    """Write ``<case>-<sequence>.png`` (errors against h) and ``<case>-<sequence>-s11.png``
+    (the residual σ11 axis profiles of the levels) of each result into ``folder``."""
     folder.mkdir(parents=True, exist_ok=True)
     for result in results:
-        path = folder / f"{result.case}-{result.refinement.name}.png"
-        plot_errors(result, PLOTTED).savefig(path, dpi=120, bbox_inches="tight")
-        print(f"plot: {path}")
+        stem = f"{result.case}-{result.refinement.name}"
+        plot_errors(result, PLOTTED).savefig(folder / f"{stem}.png", dpi=120,
+                                             bbox_inches="tight")
+        plot_profiles(result).savefig(folder / f"{stem}-s11.png", dpi=120, bbox_inches="tight")
+    print(f"plots: {folder}")
 
 
 if __name__ == "__main__":

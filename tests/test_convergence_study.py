@@ -164,7 +164,9 @@ def test_quick_pipeline_end_to_end(tmp_path, capsys):
     assert all(r["behaviour"] in {"monotone", "oscillating", "diverging"} for r in print_depth)
     assert all(float(r["shipped_value"]) > 0.0 for r in print_depth)  # a print, in metres
     assert sorted(p.name for p in (tmp_path / "plots").iterdir()) == [
-        "nanoindentation-190mN-increments.png", "nanoindentation-190mN-layers.png"]
+        "nanoindentation-190mN-increments-s11.png", "nanoindentation-190mN-increments.png",
+        "nanoindentation-190mN-layers-s11.png", "nanoindentation-190mN-layers.png"]
+    assert {r["converged"] for r in levels} == {"True"}
     cached = sorted(cache.glob("*.json"))
     assert len(cached) == 5  # shipped level shared by both sequences
     capsys.readouterr()
@@ -176,3 +178,8 @@ def test_quick_pipeline_end_to_end(tmp_path, capsys):
     assert "running" not in capsys.readouterr().out
     assert read(table) == levels
     assert sorted(cache.glob("*.json")) == cached
+
+    # --plan lists the levels, all cached now, and runs nothing
+    assert pipeline.main([*argv, "--plan"]) == 0
+    plan = capsys.readouterr().out
+    assert plan.count("cached") == 7 and "to run" not in plan  # shipped + 2 x 3 levels

@@ -36,19 +36,21 @@ __all__ = [
     "SequenceResult",
     "level_rows",
     "plot_errors",
+    "plot_profiles",
     "summary_rows",
     "write_csv",
 ]
 
 LEVEL_COLUMNS: tuple[str, ...] = (
-    "case", "sequence", "level", "nx", "nz", "depth", "increments", "h", "quantity", "unit",
-    "value", "relative_error",
+    "case", "sequence", "level", "nx", "nz", "depth", "increments", "h", "converged", "quantity",
+    "unit", "value", "relative_error",
 )
 SUMMARY_COLUMNS: tuple[str, ...] = (
     "case", "sequence", "quantity", "unit", "ratio", "levels", "behaviour", "order",
     "previous_order", "formal_order", "limit", "uncertainty", "relative_uncertainty",
     "formal_limit", "finest_value", "shipped_value", "shipped_error",
 )
+UM, MPA = 1e6, 1e-6
 #: Behaviour of a sequence with a level that did not run (or a quantity it does not have).
 MISSING = "missing"
 
@@ -59,7 +61,8 @@ class SequenceResult:
 
     ``levels`` are the discretisations (coarse to fine), ``quantities`` the measured quantities
     of each level (None for a level that failed), ``shipped`` those of the shipped
-    discretisation.
+    discretisation, ``converged`` whether every step of each level met its tolerances and
+    ``profiles`` each level's residual σ11 axis profile (``x3``, ``residual_s11``), if known.
     """
 
     case: str
@@ -67,6 +70,8 @@ class SequenceResult:
     levels: Sequence[Discretisation]
     quantities: Sequence[Mapping[str, float] | None]
     shipped: Mapping[str, float] | None
+    converged: Sequence[bool | None] = ()
+    profiles: Sequence[Mapping[str, Sequence[float]] | None] = ()
 
     def names(self) -> list[str]:
         """Return the quantity names, in the order of the first level that has them."""
@@ -101,6 +106,7 @@ def level_rows(result: SequenceResult) -> list[dict[str, Any]]:
                 "case": result.case, "sequence": result.refinement.name, "level": k,
                 "nx": level.nx, "nz": level.nz, "depth": level.depth,
                 "increments": level.total_increments, "h": result.refinement.step_size(k),
+                "converged": result.converged[k] if k < len(result.converged) else "",
                 "quantity": name, "unit": unit_of(name), "value": value,
                 "relative_error": error,
             })
@@ -199,4 +205,23 @@ def plot_errors(result: SequenceResult, names: Sequence[str]) -> Figure:
     if anchor is not None:
         ax.legend(fontsize="small")
     ax.grid(True, which="both", alpha=0.3)
+    return fig
+
+
+def plot_profiles(result: SequenceResult) -> Figure:
+    """Plot the residual σ11 on the axis against depth, one line per level of ``result``."""
+    fig = Figure(figsize=(6.4, 4.8))
+    ax = fig.add_subplot()
+    for level, profile in zip(result.levels, result.profiles, strict=False):
+        if profile is None:
+            continue
+        ax.plot(np.asarray(profile["residual_s11"]) * MPA, np.asarray(profile["x3"]) * UM, ".-",
+                label=f"{level.nx}² × {level.nz}, {'+'.join(map(str, level.increments))}")
+    ax.invert_yaxis()
+    ax.set_xlabel("residual σ11 on the axis [MPa]")
+    ax.set_ylabel("depth x3 [µm]")
+    ax.set_title(f"{result.case}: {result.refinement.name}")
+    if any(profile is not None for profile in result.profiles):
+        ax.legend(fontsize="small")
+    ax.grid(True, alpha=0.3)
     return fig
