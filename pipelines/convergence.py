@@ -26,9 +26,10 @@ named by the case, the level and a hash of the case file, the overrides and the 
 rerun recomputes nothing else, and a changed solver runs again. The tables are written
 atomically and never over an existing file unless ``--overwrite``.
 
-``--quick`` runs tiny grids (32 × 32 × 8 cells, 2 + 1 increments at the shipped level; seconds
-per case) into ``runs/convergence-quick``; its tables go there too unless given. ``--set``
-overrides apply to every case (e.g. ``--set solver.fft_threads=1``). See docs/convergence.md.
+``--quick`` runs tiny grids (8 layers, 8 surface cells per Hertz radius, 2 + 1 increments at
+the shipped level: 32 × 32 × 8 cells at 650 mN; seconds per case) into
+``runs/convergence-quick``; its tables go there too unless given. ``--set`` overrides apply to
+every case (e.g. ``--set solver.fft_threads=1``). See docs/convergence.md.
 """
 
 from __future__ import annotations
@@ -70,9 +71,11 @@ from sacflow.studies.convergence_table import (
 )
 
 ROOT = Path(__file__).resolve().parent.parent
-#: The shipped level of ``--quick``: tiny grids and few increments (two-segment load paths).
-QUICK = ("grid.nx=32", "grid.ny=32", "grid.nz=8", "load_path.0.increments=2",
-         "load_path.1.increments=1")
+#: The shipped level of ``--quick``: few layers and increments (two-segment load paths), and
+#: :data:`QUICK_CELLS_PER_RADIUS` surface cells per Hertz radius of the window (its coarsest
+#: lateral level keeps the 8 cells across the contact diameter a case needs).
+QUICK = ("grid.nz=8", "load_path.0.increments=2", "load_path.1.increments=1")
+QUICK_CELLS_PER_RADIUS = 8
 #: Quantities printed in the summary (all are in the tables; ``--all`` prints every one).
 PRINTED = ("approach_at_peak_load", "print_depth", "max_plastic_strain",
            "max_plastic_strain_refined", "max_plastic_strain_refined_depth",
@@ -134,10 +137,10 @@ def study(args: argparse.Namespace) -> int:
         if path.exists() and not (args.overwrite or args.plan):
             raise SacflowError(f"{path} exists: give --overwrite to replace it, or another path")
     fingerprint = source_fingerprint()
-    overrides = [*(QUICK if args.quick else ()), *args.overrides]
     results: list[SequenceResult] = []
     for name in args.cases:
         study_case = STUDY_CASES[name]
+        overrides = [*(quick_overrides(study_case) if args.quick else ()), *args.overrides]
         base = shipped_discretisation(base_case(study_case, overrides))
         runner = LevelRunner(study_case, overrides, args.cache, fingerprint)
         plan = {seq: SEQUENCES[seq].levels(base, args.levels) for seq in args.sequences}
@@ -164,6 +167,13 @@ def study(args: argparse.Namespace) -> int:
     if args.plots is not None:
         write_plots(results, args.plots)
     return 0
+
+
+def quick_overrides(study_case: StudyCase) -> list[str]:
+    """The ``--quick`` overrides of ``study_case``: :data:`QUICK` and a small surface grid."""
+    half_width = base_case(study_case).grid.half_width
+    cells = 2 * round(QUICK_CELLS_PER_RADIUS * half_width)
+    return [f"grid.nx={cells}", f"grid.ny={cells}", *QUICK]
 
 
 def print_plan(runner: LevelRunner, base: Discretisation,

@@ -12,7 +12,9 @@ from __future__ import annotations
 
 import csv
 import importlib.util
+import json
 import math
+import re
 from pathlib import Path
 
 import pytest
@@ -24,6 +26,7 @@ from sacflow.studies.convergence import (
     Discretisation,
     base_case,
     shipped_discretisation,
+    source_fingerprint,
 )
 from sacflow.studies.convergence_table import LEVEL_COLUMNS, SUMMARY_COLUMNS
 from sacflow.studies.richardson import (
@@ -126,6 +129,11 @@ def test_shipped_discretisation_makes_the_automatic_depth_explicit():
     assert perfect.body.hardening.yield_stress == pytest.approx(1655.7e6, rel=1e-4)
 
 
+def test_source_fingerprint_names_the_numerical_code():
+    assert re.fullmatch(r"[0-9a-f]{16}", source_fingerprint())
+    assert source_fingerprint(("solver",)) != source_fingerprint(("kernels",))
+
+
 def load_pipeline():
     spec = importlib.util.spec_from_file_location("convergence_pipeline", PIPELINE)
     assert spec is not None and spec.loader is not None
@@ -169,6 +177,10 @@ def test_quick_pipeline_end_to_end(tmp_path, capsys):
     assert {r["converged"] for r in levels} == {"True"}
     cached = sorted(cache.glob("*.json"))
     assert len(cached) == 5  # shipped level shared by both sequences
+    record = json.loads(cached[0].read_text(encoding="utf-8"))
+    profile, quantities_of_run = record["profile"], record["quantities"]
+    assert quantities_of_run["residual_s11_axis_min"] == min(profile["residual_s11"])
+    assert len(profile["x3"]) == record["nz"]
     capsys.readouterr()
 
     # the tables exist: refused without --overwrite; with it, every run comes from the cache
