@@ -8,11 +8,14 @@ Computational Science and Engineering*, 1998, §5.4 and §5.9)
 
 * the observed order p = ln((f₂ − f₁) / (f₃ − f₂)) / ln r,
 * the extrapolated limit f∞ = f₃ + (f₃ − f₂) / (rᵖ − 1),
-* the grid convergence index of the finest level GCI = F_s |f₃ − f₂| / (rᵖ − 1) with the
-  safety factor F_s = 1.25 (Roache's value for a three-level study with an observed order):
-  a band about f₃ that holds the true limit with about 95 % confidence. It is the
-  uncertainty reported here: unlike the spread between the limits of the observed and the
-  formal order, it does not vanish when the observed order happens to equal the formal one.
+* the grid convergence index of the finest level GCI = F_s |f₃ − f₂| / (r^q − 1) with the
+  safety factor F_s = 1.25 (Roache's value for a three-level study with an observed order) and
+  q = min(p, formal order): a band about f₃ that holds the true limit with about 95 %
+  confidence. No credit is taken for an observed order above the formal one (Roache 1998,
+  §5.9; Eça & Hoekstra, J. Comput. Phys. 262 (2014) 104): such an order is a pre-asymptotic
+  accident more often than a property of the scheme. It is the uncertainty reported here:
+  unlike the spread between the limits of the observed and the formal order, it does not
+  vanish when the observed order happens to equal the formal one.
 
 Sequences whose differences change sign ("oscillating") or grow ("diverging") have no order
 and no limit; an oscillating one gets half the range of its last three levels as uncertainty
@@ -62,7 +65,8 @@ class Extrapolation:
         Richardson limit f∞ with the observed order (the last value when unchanged; NaN when
         oscillating or diverging).
     uncertainty : float
-        GCI of the finest level (monotone), half the range of the last three levels
+        GCI of the finest level (monotone; with the observed order, or the formal one when
+        lower), half the range of the last three levels
         (oscillating), 0 (unchanged), NaN (diverging).
     formal_limit : float
         Richardson limit with the formal order instead (NaN without one).
@@ -134,7 +138,8 @@ def extrapolate(values: Sequence[float], ratio: float,
         return Extrapolation(DIVERGING, math.nan, math.nan, math.nan, formal, previous)
     order = observed_order(coarse, medium, fine, ratio)
     limit = richardson_limit(medium, fine, ratio, order)
-    gci = GCI_SAFETY_FACTOR * abs(second) / (ratio**order - 1.0)
+    gci_order = order if formal_order is None else min(order, formal_order)
+    gci = GCI_SAFETY_FACTOR * abs(second) / (ratio**gci_order - 1.0)
     return Extrapolation(MONOTONE, order, limit, gci, formal, previous)
 
 
