@@ -6,10 +6,11 @@ Two tidy tables, written as CSV:
   level's discretisation, its relative step ``h`` (1 at the coarsest level) and its relative
   error against the sequence's Richardson limit;
 * the summary (:data:`SUMMARY_COLUMNS`): one row per case, sequence and quantity, with the
-  behaviour of the last three levels, the observed order (and that of the three before, with
-  four levels or more), the Richardson limit and its uncertainty (GCI, F_s = 1.25:
-  :mod:`sacflow.studies.richardson`), the limit with the formal order, and the shipped
-  discretisation's value with its relative error against the limit.
+  behaviour of the last three levels (and whether every step of every level converged), the
+  observed order (and that of the three before, with four levels or more), the Richardson
+  limit and its uncertainty (GCI, F_s = 1.25: :mod:`sacflow.studies.richardson`), the limit
+  with the formal order, and the shipped discretisation's value with its relative error
+  against the limit.
 """
 
 from __future__ import annotations
@@ -46,7 +47,7 @@ LEVEL_COLUMNS: tuple[str, ...] = (
     "unit", "value", "relative_error",
 )
 SUMMARY_COLUMNS: tuple[str, ...] = (
-    "case", "sequence", "quantity", "unit", "ratio", "levels", "behaviour", "order",
+    "case", "sequence", "quantity", "unit", "ratio", "levels", "converged", "behaviour", "order",
     "previous_order", "formal_order", "limit", "uncertainty", "relative_uncertainty",
     "formal_limit", "finest_value", "shipped_value", "shipped_error",
 )
@@ -125,6 +126,7 @@ def summary_rows(result: SequenceResult) -> list[dict[str, Any]]:
         row: dict[str, Any] = {
             "case": result.case, "sequence": seq.name, "quantity": name, "unit": unit_of(name),
             "ratio": seq.ratio, "levels": len(values),
+            "converged": all(c is True for c in result.converged) if result.converged else "",
             "behaviour": MISSING if fit is None else fit.behaviour,
             "order": math.nan if fit is None else fit.order,
             "previous_order": math.nan if fit is None else fit.previous_order,
