@@ -1,0 +1,322 @@
+"""Convergence study of elastic-plastic indentation runs: cases, refinement sequences, quantities.
+
+The study (``pipelines/convergence.py``, ``docs/convergence.md``, issue #32) runs a case at
+levels of a discretisation refined by a constant ratio and reads off each level's results; the
+observed orders and limits come from :mod:`sacflow.studies.richardson`. Here:
+
+* :data:`STUDY_CASES`: the cases (case file + overrides; one with its hardening law replaced by
+  perfect plasticity at the same initial yield stress);
+* :class:`Discretisation`: the numbers a level is made of (surface cells, layers, box depth, the
+  increments of each load-path segment), as ``--set`` overrides. The box depth is always given
+  explicitly (the shipped case's automatic depth), so that it does not move with the layers;
+* :data:`SEQUENCES`: what each sequence refines (lateral cells, layers at a fixed box depth, box
+  depth at a fixed layer thickness, increments, everything together) and by which ratio;
+* :func:`measure`: the quantities of one finished simulation.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from sacflow.compare.fields import refined_peak
+from sacflow.config.schema import Case, Elastic
+from sacflow.config.solver_inputs import solver_inputs
+from sacflow.errors import SacflowError
+from sacflow.solver.state import COMPONENTS, State
+from sacflow.storage.case_file import load_case
+
+if TYPE_CHECKING:
+    from sacflow.solver.simulation import Simulation
+
+__all__ = [
+    "PROFILE_DEPTHS",
+    "SEQUENCES",
+    "STUDY_CASES",
+    "UNITS",
+    "ConvergenceError",
+    "Discretisation",
+    "Refinement",
+    "StudyCase",
+    "base_case",
+    "case_overrides",
+    "measure",
+    "shipped_discretisation",
+    "source_fingerprint",
+    "top_layer_quantities",
+    "unit_of",
+]
+
+ROOT = Path(__file__).resolve().parent.parent.parent
+PACKAGE = Path(__file__).resolve().parent.parent
+#: Depths (in Hertz contact radii at the maximum load) where the residual σ11 axis profile is
+#: read (linear interpolation between layer centres), each one quantity of the study.
+PROFILE_DEPTHS: tuple[float, ...] = (0.25, 0.5, 1.0, 1.5, 2.0)
+#: Top layers whose residual σ33 and hydrostatic stress are read (1 = the surface layer).
+TOP_LAYERS: tuple[int, ...] = (1, 2)
+#: Parts of the package whose code decides the numbers of a run (a run cached by an older
+#: version of any of them is not reused): everything below the application layer, and this
+#: module (the measurement).
+NUMERICAL_SOURCES: tuple[str, ...] = ("errors.py", "machine", "kernels", "mechanics", "solver",
+                                      "config", "studies/convergence.py")
+I11, I33 = COMPONENTS.index("11"), COMPONENTS.index("33")
+I13, I23 = COMPONENTS.index("13"), COMPONENTS.index("23")
+
+
+class ConvergenceError(SacflowError):
+    """A study that cannot be set up: an unknown case or sequence, a level of fractional cells."""
+
+
+@dataclass(frozen=True)
+class StudyCase:
+    """One case of the study: a case file, overrides, optionally made perfectly plastic.
+
+    ``perfectly_plastic`` replaces the hardening law by perfect plasticity at the law's own
+    initial yield stress (``body.hardening`` with ``law = "perfectly_plastic"``).
+    """
+
+    name: str
+    path: Path
+    overrides: tuple[str, ...] = ()
+    perfectly_plastic: bool = False
+
+
+STUDY_CASES: dict[str, StudyCase] = {
+    case.name: case for case in (
+        StudyCase("nanoindentation-190mN", ROOT / "configs" / "nanoindentation-190mN.toml"),
+        StudyCase("nanoindentation-650mN", ROOT / "configs" / "nanoindentation-650mN.toml"),
+        StudyCase("nanoindentation-linear-650mN",
+                  ROOT / "configs" / "nanoindentation-linear-650mN.toml"),
+        StudyCase("nanoindentation-perfect-650mN", ROOT / "configs" / "nanoindentation-650mN.toml",
+                  ("name=\"nanoindentation-perfect-650mN\"",), perfectly_plastic=True),
+        StudyCase("dent-from-indentation-press",
+                  ROOT / "pipelines" / "dent-from-indentation-press.toml"),
+    )
+}
+
+
+def case_overrides(study_case: StudyCase) -> tuple[str, ...]:
+    """Return the overrides that make ``study_case`` of its case file (perfect plasticity too)."""
+    if not study_case.perfectly_plastic:
+        return study_case.overrides
+    law = load_case(study_case.path, study_case.overrides).body.hardening
+    if isinstance(law, Elastic):
+        raise ConvergenceError(f"{study_case.name}: an elastic body has no yield stress")
+    yield_stress = law.initial_yield_stress()
+    return (*study_case.overrides,
+            f"body.hardening={{law = \"perfectly_plastic\", yield_stress = {yield_stress!r}}}")
+
+
+def base_case(study_case: StudyCase, overrides: Sequence[str] = ()) -> Case:
+    """Return the validated case of ``study_case`` with further ``overrides`` (applied last)."""
+    return load_case(study_case.path, [*case_overrides(study_case), *overrides])
+
+
+@dataclass(frozen=True)
+class Discretisation:
+    """The numbers of one level of a sequence.
+
+    ``nx`` = ``ny`` surface cells, ``nz`` layers over ``depth`` [m], and the increments of each
+    load-path segment.
+    """
+
+    nx: int
+    nz: int
+    depth: float
+    increments: tuple[int, ...]
+
+    def overrides(self) -> list[str]:
+        """Return the level as ``--set`` overrides (the box depth always explicit)."""
+        return [f"grid.nx={self.nx}", f"grid.ny={self.nx}", f"grid.nz={self.nz}",
+                f"grid.depth={self.depth!r}",
+                *(f"load_path.{i}.increments={n}" for i, n in enumerate(self.increments))]
+
+    @property
+    def total_increments(self) -> int:
+        """Increments of the whole load path."""
+        return sum(self.increments)
+
+
+def shipped_discretisation(case: Case) -> Discretisation:
+    """Return the discretisation ``case`` runs with, its automatic box depth made explicit."""
+    depth = solver_inputs(case).grid.depth
+    return Discretisation(case.grid.nx, case.grid.nz, float(depth),
+                          tuple(int(getattr(seg, "increments", 1)) for seg in case.load_path))
+
+
+#: The discretisation parameters a sequence may refine.
+PARAMETERS = ("nx", "nz", "depth", "increments")
+
+
+@dataclass(frozen=True)
+class Refinement:
+    """A refinement sequence: each named parameter multiplied by ``ratio`` per level.
+
+    ``start`` maps the refined parameters (:data:`PARAMETERS`) to the exponent of ``ratio`` of
+    the first level relative to the shipped discretisation (-1: the first level is one ratio
+    coarser than the shipped one). ``depth`` scales the box depth and the layer count together
+    (same layer thickness): its ``h`` is the inverse box depth. ``formal_order`` is the order the
+    scheme should have in ``h`` (None when there is none to expect).
+    """
+
+    name: str
+    ratio: float
+    start: Mapping[str, int] = field(default_factory=dict)
+    formal_order: float | None = 2.0
+    description: str = ""
+
+    def levels(self, base: Discretisation, count: int = 3) -> list[Discretisation]:
+        """Return the ``count`` levels of this sequence around ``base`` (coarse to fine).
+
+        Raises
+        ------
+        ConvergenceError
+            When a level would need a fractional number of cells or increments.
+        """
+        return [self.level(base, k) for k in range(count)]
+
+    def level(self, base: Discretisation, k: int) -> Discretisation:
+        """Level ``k`` (0 the coarsest) of this sequence around ``base``."""
+        def scaled(name: str, value: int) -> int:
+            if name not in self.start:
+                return value
+            exact = value * self.ratio ** (self.start[name] + k)
+            if abs(exact - round(exact)) > 1e-9 * exact or round(exact) < 1:
+                raise ConvergenceError(
+                    f"sequence {self.name!r}: level {k} would have {exact:g} {name} (from "
+                    f"{value}): choose a base divisible by the ratio {self.ratio:g}"
+                )
+            return int(round(exact))
+
+        nz = scaled("depth", scaled("nz", base.nz))
+        depth = base.depth * (self.ratio ** (self.start["depth"] + k)
+                              if "depth" in self.start else 1.0)
+        return replace(base, nx=scaled("nx", base.nx), nz=nz, depth=depth,
+                       increments=tuple(scaled("increments", n) for n in base.increments))
+
+    def step_size(self, k: int) -> float:
+        """Discretisation parameter h of level ``k`` relative to the coarsest level: r⁻ᵏ."""
+        return float(self.ratio ** (-k))
+
+
+SEQUENCES: dict[str, Refinement] = {
+    seq.name: seq for seq in (
+        Refinement("lateral", 2.0, {"nx": -1}, 2.0,
+                   "surface cells nx = ny (same window), layers and increments fixed"),
+        Refinement("layers", 2.0, {"nz": -1}, 2.0,
+                   "layers nz over the same box depth, surface cells and increments fixed"),
+        Refinement("depth", 1.5, {"depth": 0}, None,
+                   "box depth and layers together (same layer thickness); h = 1 / depth"),
+        Refinement("increments", 2.0, {"increments": 0}, 1.0,
+                   "load and unload increments together, grid fixed"),
+        Refinement("together", 2.0, {"nx": -1, "nz": -1, "increments": 0}, 1.0,
+                   "surface cells, layers and increments together"),
+    )
+}
+
+#: Unit of the quantities of :func:`measure` (SI) by name prefix; names ending in ``_depth``
+#: are depths [m].
+UNITS: dict[str, str] = {"approach": "m", "print_depth": "m", "peak_pressure": "Pa",
+                         "max_plastic_strain": "1", "residual": "Pa", "hydrostatic": "Pa"}
+
+
+def unit_of(quantity: str) -> str:
+    """Return the unit of ``quantity`` of :func:`measure`."""
+    if quantity.endswith("_depth"):
+        return "m"
+    return next((unit for prefix, unit in UNITS.items() if quantity.startswith(prefix)), "")
+
+
+def measure(sim: Simulation, states: Sequence[State], contact_radius: float
+            ) -> tuple[dict[str, float], dict[str, list[float]]]:
+    """Return the quantities of a finished simulation and its residual σ11 axis profile.
+
+    Parameters
+    ----------
+    sim : Simulation
+        The simulation after its run (its body holds the final plastic strain).
+    states : sequence of State
+        Every step of the run.
+    contact_radius : float
+        Hertz contact radius at the maximum load [m]: the unit of :data:`PROFILE_DEPTHS`.
+
+    Returns
+    -------
+    quantities : dict
+        Name -> value (SI): ``approach_at_peak_load``, ``print_depth`` (largest residual
+        surface displacement at the end), ``peak_pressure`` (over the run),
+        ``max_plastic_strain`` (cell maximum) and its ``_depth``, ``max_plastic_strain_refined``
+        (:func:`~sacflow.compare.fields.refined_peak`) and its ``_depth``,
+        ``residual_s11_axis_min`` and the axis profile at :data:`PROFILE_DEPTHS`
+        (``residual_s11_axis_at_0.5a``...), and per top layer L (:data:`TOP_LAYERS`)
+        ``residual_s33_layerL_axis`` / ``_extreme`` (signed value of largest magnitude over the
+        layer), ``hydrostatic_layerL_axis`` / ``_extreme``, ``residual_shear_layerL_max``
+        (largest √(σ13² + σ23²), which must vanish at the traction-free surface too).
+    profile : dict
+        ``x3`` (layer centres [m]) and ``residual_s11`` [Pa] in the column nearest the axis.
+    """
+    top = max(range(len(states)), key=lambda i: states[i].load)
+    x1, x2, x3 = sim.coords.x1, sim.coords.x2, sim.coords.x3
+    i = int(np.argmin(np.abs(x1 - states[top].load_x1)))
+    j = int(np.argmin(np.abs(x2 - states[top].load_x2)))
+    strain = np.asarray(sim.equivalent_plastic_strain, dtype=float)
+    stress = np.asarray(sim.residual_stress, dtype=float)
+    cell = np.unravel_index(int(np.nanargmax(strain)), strain.shape)
+    refined, where = refined_peak(strain, (x1, x2, x3))
+    axis_s11 = stress[i, j, :, I11]
+    out = {
+        "approach_at_peak_load": float(states[top].approach),
+        "print_depth": float(np.max(sim.residual_displacement)),
+        "peak_pressure": float(max(s.max_pressure for s in states)),
+        "max_plastic_strain": float(strain[cell]),
+        "max_plastic_strain_depth": float(x3[cell[2]]),
+        "max_plastic_strain_refined": float(refined),
+        "max_plastic_strain_refined_depth": float(where[2]),
+        "residual_s11_axis_min": float(np.nanmin(axis_s11)),
+    }
+    for depth in PROFILE_DEPTHS:
+        z = depth * contact_radius
+        inside = x3[0] <= z <= x3[-1]
+        out[f"residual_s11_axis_at_{depth:g}a"] = (float(np.interp(z, x3, axis_s11)) if inside
+                                                   else math.nan)
+    out.update(top_layer_quantities(stress, i, j))
+    return out, {"x3": [float(z) for z in x3], "residual_s11": [float(s) for s in axis_s11]}
+
+
+def top_layer_quantities(stress: np.ndarray, i: int, j: int) -> dict[str, float]:
+    """Residual σ33, hydrostatic and shear stress of the :data:`TOP_LAYERS` of ``stress``."""
+    out: dict[str, float] = {}
+    for layer in TOP_LAYERS:
+        if layer > stress.shape[2]:
+            continue
+        sig = stress[:, :, layer - 1, :]
+        fields = {"residual_s33": sig[..., I33],
+                  "hydrostatic": (sig[..., 0] + sig[..., 1] + sig[..., 2]) / 3.0}
+        for name, values in fields.items():
+            out[f"{name}_layer{layer}_axis"] = float(values[i, j])
+            out[f"{name}_layer{layer}_extreme"] = float(values.flat[np.nanargmax(np.abs(values))])
+        out[f"residual_shear_layer{layer}_max"] = float(
+            np.nanmax(np.hypot(sig[..., I13], sig[..., I23])))
+    return out
+
+
+def source_fingerprint(parts: Iterable[str] = NUMERICAL_SOURCES) -> str:
+    """SHA-256 (16 hex digits) of the package sources that decide a run's numbers.
+
+    A cached result is reused only by the same code: after a change of the solver, the study
+    runs again (the old results stay in their files).
+    """
+    digest = hashlib.sha256()
+    for part in parts:
+        path = PACKAGE / part
+        files = sorted(path.rglob("*.py")) if path.is_dir() else [path]
+        for file in files:
+            digest.update(str(file.relative_to(PACKAGE)).encode())
+            digest.update(file.read_bytes())
+    return digest.hexdigest()[:16]

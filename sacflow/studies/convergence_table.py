@@ -1,0 +1,229 @@
+"""Tables and plots of a convergence study (:mod:`sacflow.studies.convergence`).
+
+Two tidy tables, written as CSV:
+
+* the levels (:data:`LEVEL_COLUMNS`): one row per case, sequence, level and quantity, with the
+  level's discretisation, its relative step ``h`` (1 at the coarsest level) and its relative
+  error against the sequence's Richardson limit;
+* the summary (:data:`SUMMARY_COLUMNS`): one row per case, sequence and quantity, with the
+  behaviour of the last three levels (and whether every step of every level converged), the
+  observed order (and that of the three before, with four levels or more), the Richardson
+  limit and its uncertainty (GCI, F_s = 1.25: :mod:`sacflow.studies.richardson`), the limit
+  with the formal order, and the shipped discretisation's value with its relative error
+  against the limit.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import os
+import tempfile
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from sacflow.errors import SacflowError
+from sacflow.studies.convergence import Discretisation, Refinement, unit_of
+from sacflow.studies.richardson import Extrapolation, extrapolate, relative_errors
+
+__all__ = [
+    "LEVEL_COLUMNS",
+    "SUMMARY_COLUMNS",
+    "SequenceResult",
+    "level_rows",
+    "plot_errors",
+    "plot_profiles",
+    "summary_rows",
+    "write_csv",
+]
+
+LEVEL_COLUMNS: tuple[str, ...] = (
+    "case", "sequence", "level", "nx", "nz", "depth", "increments", "h", "converged", "quantity",
+    "unit", "value", "relative_error",
+)
+SUMMARY_COLUMNS: tuple[str, ...] = (
+    "case", "sequence", "quantity", "unit", "ratio", "levels", "converged", "behaviour", "order",
+    "previous_order", "formal_order", "limit", "uncertainty", "relative_uncertainty",
+    "formal_limit", "finest_value", "shipped_value", "shipped_error",
+)
+UM, MPA = 1e6, 1e-6
+#: Behaviour of a sequence with a level that did not run (or a quantity it does not have).
+MISSING = "missing"
+
+
+@dataclass(frozen=True)
+class SequenceResult:
+    """The results of one sequence of one case.
+
+    ``levels`` are the discretisations (coarse to fine), ``quantities`` the measured quantities
+    of each level (None for a level that failed), ``shipped`` those of the shipped
+    discretisation, ``converged`` whether every step of each level met its tolerances and
+    ``profiles`` each level's residual σ11 axis profile (``x3``, ``residual_s11``), if known.
+    """
+
+    case: str
+    refinement: Refinement
+    levels: Sequence[Discretisation]
+    quantities: Sequence[Mapping[str, float] | None]
+    shipped: Mapping[str, float] | None
+    converged: Sequence[bool | None] = ()
+    profiles: Sequence[Mapping[str, Sequence[float]] | None] = ()
+
+    def names(self) -> list[str]:
+        """Return the quantity names, in the order of the first level that has them."""
+        for q in (*self.quantities, self.shipped):
+            if q is not None:
+                return list(q)
+        return []
+
+    def values(self, name: str) -> list[float]:
+        """Return ``name`` on each level (NaN where missing)."""
+        return [math.nan if q is None else float(q.get(name, math.nan))
+                for q in self.quantities]
+
+    def analysis(self, name: str) -> Extrapolation | None:
+        """Return the Richardson analysis of ``name``, None when a level lacks it."""
+        values = self.values(name)
+        if not all(math.isfinite(v) for v in values):
+            return None
+        return extrapolate(values, self.refinement.ratio, self.refinement.formal_order)
+
+
+def level_rows(result: SequenceResult) -> list[dict[str, Any]]:
+    """Return the rows of :data:`LEVEL_COLUMNS` of one sequence."""
+    rows: list[dict[str, Any]] = []
+    for name in result.names():
+        values = result.values(name)
+        fit = result.analysis(name)
+        errors = relative_errors(values, math.nan if fit is None else fit.limit)
+        for k, (level, value, error) in enumerate(zip(result.levels, values, errors,
+                                                      strict=True)):
+            rows.append({
+                "case": result.case, "sequence": result.refinement.name, "level": k,
+                "nx": level.nx, "nz": level.nz, "depth": level.depth,
+                "increments": level.total_increments, "h": result.refinement.step_size(k),
+                "converged": result.converged[k] if k < len(result.converged) else "",
+                "quantity": name, "unit": unit_of(name), "value": value,
+                "relative_error": error,
+            })
+    return rows
+
+
+def summary_rows(result: SequenceResult) -> list[dict[str, Any]]:
+    """Return the rows of :data:`SUMMARY_COLUMNS` of one sequence."""
+    rows: list[dict[str, Any]] = []
+    seq = result.refinement
+    for name in result.names():
+        fit = result.analysis(name)
+        values = result.values(name)
+        shipped = math.nan if result.shipped is None else result.shipped.get(name, math.nan)
+        limit = math.nan if fit is None else fit.limit
+        row: dict[str, Any] = {
+            "case": result.case, "sequence": seq.name, "quantity": name, "unit": unit_of(name),
+            "ratio": seq.ratio, "levels": len(values),
+            "converged": all(c is True for c in result.converged) if result.converged else "",
+            "behaviour": MISSING if fit is None else fit.behaviour,
+            "order": math.nan if fit is None else fit.order,
+            "previous_order": math.nan if fit is None else fit.previous_order,
+            "formal_order": math.nan if seq.formal_order is None else seq.formal_order,
+            "limit": limit,
+            "uncertainty": math.nan if fit is None else fit.uncertainty,
+            "formal_limit": math.nan if fit is None else fit.formal_limit,
+            "finest_value": values[-1], "shipped_value": shipped,
+            "shipped_error": relative_errors([shipped], limit)[0],
+        }
+        row["relative_uncertainty"] = (row["uncertainty"] / abs(limit)
+                                       if math.isfinite(limit) and limit != 0.0 else math.nan)
+        rows.append(row)
+    return rows
+
+
+def write_csv(path: Path, rows: Sequence[Mapping[str, Any]], columns: Sequence[str],
+              overwrite: bool = False) -> None:
+    """Write ``rows`` to ``path`` as CSV, atomically (a temporary file, then renamed).
+
+    Raises
+    ------
+    SacflowError
+        When ``path`` exists and ``overwrite`` is false: a user's file is never replaced
+        without being asked.
+    """
+    if path.exists() and not overwrite:
+        raise SacflowError(f"{path} exists: give --overwrite to replace it, or another path")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w", newline="", encoding="utf-8") as f:
+            writer = csv.DictWriter(f, fieldnames=list(columns))
+            writer.writeheader()
+            for row in rows:
+                writer.writerow({k: _cell(row.get(k, "")) for k in columns})
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def _cell(value: Any) -> Any:
+    """Return ``value`` as a CSV cell: floats with 10 significant digits, NaN empty."""
+    if isinstance(value, float):
+        return "" if math.isnan(value) else f"{value:.10g}"
+    return value
+
+
+def plot_errors(result: SequenceResult, names: Sequence[str]) -> Figure:
+    """Plot |f − f∞| / |f∞| against h, log-log, of ``names`` (those with a limit), one line each.
+
+    A dashed line of slope ``formal_order`` through the finest point of the first quantity
+    shows the expected rate.
+    """
+    fig = Figure(figsize=(6.4, 4.8))
+    ax = fig.add_subplot()
+    seq = result.refinement
+    h = np.array([seq.step_size(k) for k in range(len(result.levels))])
+    anchor = None
+    for name in names:
+        fit = result.analysis(name)
+        if fit is None or not math.isfinite(fit.limit) or fit.limit == 0.0:
+            continue
+        errors = np.abs(relative_errors(result.values(name), fit.limit))
+        shown = errors > 0.0
+        if not shown.any():
+            continue
+        ax.loglog(h[shown], errors[shown], "o-",
+                  label=f"{name} (p = {fit.order:.2f})")
+        anchor = anchor or (h[shown][-1], errors[shown][-1])
+    if anchor is not None and seq.formal_order is not None:
+        ax.loglog(h, anchor[1] * (h / anchor[0]) ** seq.formal_order, "k--",
+                  label=f"slope {seq.formal_order:g}")
+    ax.set_xlabel(f"h relative to the coarsest level ({seq.name}, ratio {seq.ratio:g})")
+    ax.set_ylabel("|f − f∞| / |f∞|")
+    ax.set_title(f"{result.case}: {seq.name}")
+    if anchor is not None:
+        ax.legend(fontsize="small")
+    ax.grid(True, which="both", alpha=0.3)
+    return fig
+
+
+def plot_profiles(result: SequenceResult) -> Figure:
+    """Plot the residual σ11 on the axis against depth, one line per level of ``result``."""
+    fig = Figure(figsize=(6.4, 4.8))
+    ax = fig.add_subplot()
+    for level, profile in zip(result.levels, result.profiles, strict=False):
+        if profile is None:
+            continue
+        ax.plot(np.asarray(profile["residual_s11"]) * MPA, np.asarray(profile["x3"]) * UM, ".-",
+                label=f"{level.nx}² × {level.nz}, {'+'.join(map(str, level.increments))}")
+    ax.invert_yaxis()
+    ax.set_xlabel("residual σ11 on the axis [MPa]")
+    ax.set_ylabel("depth x3 [µm]")
+    ax.set_title(f"{result.case}: {result.refinement.name}")
+    if any(profile is not None for profile in result.profiles):
+        ax.legend(fontsize="small")
+    ax.grid(True, alpha=0.3)
+    return fig

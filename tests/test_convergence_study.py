@@ -1,0 +1,202 @@
+"""The convergence study (issue #32): its arithmetic, its levels, its pipeline end to end.
+
+* :func:`sacflow.studies.richardson.extrapolate` recovers p and f∞ of synthetic sequences
+  f = f∞ + C hᵖ (any ratio, either sign of C), flags oscillating, diverging and unchanged ones;
+* the refinement sequences build the levels they say (box depth fixed, or scaled with the layers);
+* ``pipelines/convergence.py --quick`` on one case and two sequences (a few seconds): the tables'
+  columns, one row per level and quantity, a second run read from the cache, no table
+  overwritten without ``--overwrite``.
+"""
+
+from __future__ import annotations
+
+import csv
+import importlib.util
+import json
+import math
+import re
+from pathlib import Path
+
+import pytest
+
+from sacflow.studies.convergence import (
+    SEQUENCES,
+    STUDY_CASES,
+    ConvergenceError,
+    Discretisation,
+    base_case,
+    shipped_discretisation,
+    source_fingerprint,
+)
+from sacflow.studies.convergence_table import LEVEL_COLUMNS, SUMMARY_COLUMNS
+from sacflow.studies.richardson import (
+    GCI_SAFETY_FACTOR,
+    extrapolate,
+    observed_order,
+    relative_errors,
+)
+
+PIPELINE = Path(__file__).parent.parent / "pipelines" / "convergence.py"
+
+
+def synthetic(limit: float, coefficient: float, order: float, ratio: float,
+              levels: int = 3) -> list[float]:
+    """f = f∞ + C hᵖ on h = 1, 1/r, 1/r², ... (coarse to fine)."""
+    return [limit + coefficient * ratio ** (-k * order) for k in range(levels)]
+
+
+@pytest.mark.parametrize(("order", "ratio", "coefficient"),
+                         [(2.0, 2.0, 0.3), (1.0, 2.0, -5.0), (2.55, 1.5, 1e-3), (0.7, 3.0, 2.0)])
+def test_richardson_recovers_order_and_limit_of_synthetic_sequences(order, ratio, coefficient):
+    values = synthetic(10.0, coefficient, order, ratio)
+    fit = extrapolate(values, ratio, formal_order=2.0)
+    assert fit.behaviour == "monotone"
+    assert fit.order == pytest.approx(order, rel=1e-9)
+    assert fit.limit == pytest.approx(10.0, rel=1e-12)
+    # GCI of the finest level: F_s times its exact error (the sequence is asymptotic), or
+    # larger when the observed order exceeds the formal one (no credit taken for it)
+    exact = abs(values[-1] - 10.0)
+    credited = min(order, 2.0)
+    expected = exact * (ratio**order - 1.0) / (ratio**credited - 1.0)
+    assert fit.uncertainty == pytest.approx(GCI_SAFETY_FACTOR * expected, rel=1e-6)
+    assert fit.uncertainty >= GCI_SAFETY_FACTOR * exact * (1.0 - 1e-9)
+    assert math.isnan(fit.previous_order)
+    errors = relative_errors(values, fit.limit)
+    assert errors[-1] == pytest.approx((values[-1] - 10.0) / 10.0, rel=1e-6)
+
+
+def test_formal_limit_equals_observed_one_at_the_formal_order():
+    fit = extrapolate(synthetic(-3.0, 0.5, 2.0, 2.0), 2.0, formal_order=2.0)
+    assert fit.formal_limit == pytest.approx(fit.limit, rel=1e-12)
+    fit = extrapolate(synthetic(-3.0, 0.5, 1.0, 2.0), 2.0, formal_order=2.0)
+    assert abs(fit.formal_limit - fit.limit) > 0.01  # first order read as second: off
+
+
+def test_four_levels_give_the_previous_order_too():
+    values = synthetic(1.0, 1.0, 2.0, 2.0, levels=3)
+    values.insert(0, 3.0)  # a pre-asymptotic coarsest level
+    fit = extrapolate(values, 2.0)
+    assert fit.order == pytest.approx(2.0)
+    assert fit.previous_order == pytest.approx(observed_order(*values[:3], 2.0))
+    assert not fit.previous_order == pytest.approx(2.0, abs=0.1)
+
+
+def test_non_monotone_sequences_are_flagged_without_order():
+    oscillating = extrapolate([1.0, 1.2, 1.1], 2.0, formal_order=2.0)
+    assert oscillating.behaviour == "oscillating"
+    assert math.isnan(oscillating.order) and math.isnan(oscillating.limit)
+    assert oscillating.uncertainty == pytest.approx(0.1)  # half the range
+    diverging = extrapolate([1.0, 1.1, 1.3], 2.0)
+    assert diverging.behaviour == "diverging"
+    assert math.isnan(diverging.order) and math.isnan(diverging.limit)
+    unchanged = extrapolate([2.0, 2.0, 2.0], 2.0)
+    assert (unchanged.behaviour, unchanged.limit, unchanged.uncertainty) == ("unchanged", 2.0, 0.0)
+    assert all(math.isnan(e) for e in relative_errors([1.0, 2.0], math.nan))
+
+
+def test_extrapolation_needs_three_levels_and_a_ratio_above_one():
+    with pytest.raises(ValueError, match="three levels"):
+        extrapolate([1.0, 2.0], 2.0)
+    with pytest.raises(ValueError, match="ratio"):
+        extrapolate([1.0, 2.0, 2.5], 1.0)
+
+
+BASE = Discretisation(64, 24, 1.5e-5, (10, 5))
+
+
+def test_sequences_build_their_levels():
+    lateral = SEQUENCES["lateral"].levels(BASE)
+    assert [(d.nx, d.nz, d.depth, d.increments) for d in lateral] == [
+        (32, 24, 1.5e-5, (10, 5)), (64, 24, 1.5e-5, (10, 5)), (128, 24, 1.5e-5, (10, 5))]
+    layers = SEQUENCES["layers"].levels(BASE, 4)
+    assert [d.nz for d in layers] == [12, 24, 48, 96]
+    assert {d.depth for d in layers} == {1.5e-5}  # the box depth does not move with nz
+    depth = SEQUENCES["depth"].levels(BASE)
+    assert [d.nz for d in depth] == [24, 36, 54]
+    assert [d.depth / d.nz for d in depth] == pytest.approx([1.5e-5 / 24] * 3)
+    increments = SEQUENCES["increments"].levels(BASE)
+    assert [d.increments for d in increments] == [(10, 5), (20, 10), (40, 20)]
+    together = SEQUENCES["together"].levels(BASE)
+    assert [(d.nx, d.nz, d.total_increments) for d in together] == [
+        (32, 12, 15), (64, 24, 30), (128, 48, 60)]
+    assert "grid.depth=1.5e-05" in BASE.overrides()
+    with pytest.raises(ConvergenceError, match="fractional|divisible"):
+        SEQUENCES["depth"].levels(Discretisation(64, 25, 1e-5, (10, 5)))
+
+
+def test_shipped_discretisation_makes_the_automatic_depth_explicit():
+    case = base_case(STUDY_CASES["nanoindentation-650mN"])
+    shipped = shipped_discretisation(case)
+    assert (shipped.nx, shipped.nz, shipped.increments) == (64, 24, (10, 5))
+    assert case.grid.depth is None and shipped.depth > case.hertz().a
+    perfect = base_case(STUDY_CASES["nanoindentation-perfect-650mN"])
+    assert perfect.body.hardening.law == "perfectly_plastic"
+    assert perfect.body.hardening.yield_stress == pytest.approx(1655.7e6, rel=1e-4)
+
+
+def test_source_fingerprint_names_the_numerical_code():
+    assert re.fullmatch(r"[0-9a-f]{16}", source_fingerprint())
+    assert source_fingerprint(("solver",)) != source_fingerprint(("kernels",))
+
+
+def load_pipeline():
+    spec = importlib.util.spec_from_file_location("convergence_pipeline", PIPELINE)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def read(path: Path) -> list[dict[str, str]]:
+    with open(path, newline="", encoding="utf-8") as f:
+        return list(csv.DictReader(f))
+
+
+def test_quick_pipeline_end_to_end(tmp_path, capsys):
+    pipeline = load_pipeline()
+    table, summary, cache = tmp_path / "levels.csv", tmp_path / "summary.csv", tmp_path / "c"
+    argv = ["--quick", "--cases", "nanoindentation-190mN", "--sequences", "layers,increments",
+            "--cache", str(cache), "--table", str(table), "--summary", str(summary),
+            "--plots", str(tmp_path / "plots")]
+    assert pipeline.main(argv) == 0
+    levels, rows = read(table), read(summary)
+    assert tuple(levels[0]) == LEVEL_COLUMNS
+    assert tuple(rows[0]) == SUMMARY_COLUMNS
+    quantities = {r["quantity"] for r in rows}
+    assert {"approach_at_peak_load", "print_depth", "max_plastic_strain",
+            "max_plastic_strain_refined", "max_plastic_strain_refined_depth",
+            "residual_s11_axis_min", "residual_s11_axis_at_1a", "peak_pressure",
+            "residual_s33_layer1_axis", "hydrostatic_layer1_extreme"} <= quantities
+    assert len(levels) == 3 * len(rows)  # three levels per (sequence, quantity)
+    assert len(rows) == 2 * len(quantities)
+    by_level = {(r["sequence"], r["level"]): (r["nx"], r["nz"], r["increments"])
+                for r in levels}
+    assert by_level[("layers", "0")] == ("32", "4", "3")
+    assert by_level[("increments", "2")] == ("32", "8", "12")
+    print_depth = [r for r in rows if r["quantity"] == "print_depth"]
+    assert all(r["behaviour"] in {"monotone", "oscillating", "diverging"} for r in print_depth)
+    assert all(float(r["shipped_value"]) > 0.0 for r in print_depth)  # a print, in metres
+    assert sorted(p.name for p in (tmp_path / "plots").iterdir()) == [
+        "nanoindentation-190mN-increments-s11.png", "nanoindentation-190mN-increments.png",
+        "nanoindentation-190mN-layers-s11.png", "nanoindentation-190mN-layers.png"]
+    assert {r["converged"] for r in levels} == {r["converged"] for r in rows} == {"True"}
+    cached = sorted(cache.glob("*.json"))
+    assert len(cached) == 5  # shipped level shared by both sequences
+    record = json.loads(cached[0].read_text(encoding="utf-8"))
+    profile, quantities_of_run = record["profile"], record["quantities"]
+    assert quantities_of_run["residual_s11_axis_min"] == min(profile["residual_s11"])
+    assert len(profile["x3"]) == record["nz"]
+    capsys.readouterr()
+
+    # the tables exist: refused without --overwrite; with it, every run comes from the cache
+    assert pipeline.main(argv) == 2
+    assert "--overwrite" in capsys.readouterr().err
+    assert pipeline.main([*argv, "--overwrite"]) == 0
+    assert "running" not in capsys.readouterr().out
+    assert read(table) == levels
+    assert sorted(cache.glob("*.json")) == cached
+
+    # --plan lists the levels, all cached now, and runs nothing
+    assert pipeline.main([*argv, "--plan"]) == 0
+    plan = capsys.readouterr().out
+    assert plan.count("cached") == 7 and "to run" not in plan  # shipped + 2 x 3 levels
