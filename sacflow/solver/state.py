@@ -92,9 +92,10 @@ RESTART_FIELDS: tuple[str, ...] = (
     "residual_displacement",
     "pressure",
 )
-#: Internal variables of some materials only, kept with the step when the solver has them: the
-#: backstress of kinematic hardening.
-OPTIONAL_RESTART_FIELDS: tuple[str, ...] = ("backstress",)
+#: Internal variables of some bodies only, kept with the step when the solver has them: the
+#: backstress of kinematic hardening, the equivalent eigenstrain of elastic inhomogeneities
+#: (the warm start of the next step's; a resume without it re-solves it from zero).
+OPTIONAL_RESTART_FIELDS: tuple[str, ...] = ("backstress", "equivalent_eigenstrain")
 
 
 @dataclass(frozen=True)
