@@ -27,7 +27,7 @@ from sacflow.machine.threads import single_threaded_blas
 from sacflow.mechanics.initial_state import check_initial_yield, map_state
 from sacflow.solver.body import BodyState, ContactHistory
 from sacflow.solver.geometry import LoadGeometry
-from sacflow.solver.inclusion import inclusion_for
+from sacflow.solver.inclusion import EquivalentInclusion, inclusion_for
 from sacflow.solver.increment import Increment, IncrementSolver
 from sacflow.solver.inputs import SolverInputs
 from sacflow.solver.layout import StepPlan, body_grid, halfway, layer_centres
@@ -65,6 +65,9 @@ class Simulation:
         Number of increments of the load path.
     body : BodyState
         The body's plastic state and residual fields after the last increment.
+    inclusion : EquivalentInclusion or None
+        The phase field and the equivalent-eigenstrain solver of the body's elastic
+        inhomogeneities (:mod:`sacflow.solver.inclusion`), None without any.
     """
 
     def __init__(self, inputs: SolverInputs) -> None:
@@ -87,7 +90,7 @@ class Simulation:
         self.geometry = LoadGeometry(inputs.contact, self.coords, spec.cell, grid.window,
                                      grid.origin)
         with single_threaded_blas():
-            self.inclusion = inclusion_for(inputs, self.coords)
+            self.inclusion: EquivalentInclusion | None = inclusion_for(inputs, self.coords)
         eigenstrains = material.plastic or (self.inclusion is not None and self.inclusion.active)
         with single_threaded_blas():  # the kernels' set-up: see sacflow.machine.threads
             self.operators = Operators(

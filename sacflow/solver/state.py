@@ -135,7 +135,10 @@ class State:
     ``restart`` maps the names of :data:`RESTART_FIELDS` to the solver's state after the step
     and ``first_contact_offset`` is the initial-gap offset of the first contact [m] (the origin
     of the approach): with them a run goes on after this step without replaying it (empty for
-    simulations that cannot).
+    simulations that cannot). ``inclusion_iterations`` (:data:`INCLUSION_SCALARS`) counts the
+    GMRES iterations of the equivalent-eigenstrain solves of the step (0 without elastic
+    inhomogeneities); the volume fields of a body with inhomogeneities add
+    :data:`INCLUSION_FIELDS`.
     """
 
     step: int
