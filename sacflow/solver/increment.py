@@ -198,6 +198,12 @@ class IncrementSolver:
                          contact_iterations, update.applications, fields, update.residual, change,
                          update.backstress, eps_star, iterations)
 
+    def eigenstrain(self, body: BodyState) -> np.ndarray:
+        """Return the body's eigenstrain: its plastic strain, plus ε* in the inhomogeneities."""
+        if self.inclusion is None:
+            return body.plastic_strain
+        return self.inclusion.total(body.plastic_strain, body.equivalent_eigenstrain)
+
     def start(self, body: BodyState) -> np.ndarray:
         """Return the fixed point's first iterate: zero, the last ε* in the inhomogeneities."""
         x = np.zeros(body.plastic_strain.shape)  # a moved copy of the last increment: worse

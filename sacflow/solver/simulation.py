@@ -224,11 +224,9 @@ class Simulation:
                                    "kinematic hardening needs: run with --restart")
             body.backstress = np.asarray(stored, dtype=float).reshape(tensor).copy()
         body.residual_displacement = arrays["residual_displacement"]
-        eigenstrain = body.plastic_strain
-        inclusion = self.increments.inclusion
-        if inclusion is not None:  # ε* of the step (zero when not stored: re-solved next step)
+        if (inclusion := self.increments.inclusion) is not None:  # ε* (zero: re-solved)
             body.equivalent_eigenstrain = inclusion.restored(restart.get("equivalent_eigenstrain"))
-            eigenstrain = inclusion.total(eigenstrain, body.equivalent_eigenstrain)
+        eigenstrain = self.increments.eigenstrain(body)
         if self.operators.eigen is not None and eigenstrain.any():
             with single_threaded_blas():
                 body.residual_stress = self.operators.residual_stress(eigenstrain)
@@ -320,11 +318,8 @@ class Simulation:
             if inc.residual_fields is not None:
                 body.residual_stress, body.residual_displacement = inc.residual_fields
             else:
-                eigenstrain = body.plastic_strain
-                if self.increments.inclusion is not None:
-                    eigenstrain = self.increments.inclusion.total(eigenstrain, eps_star)
                 body.residual_stress, body.residual_displacement = (
-                    self.operators.residual_fields(eigenstrain))
+                    self.operators.residual_fields(self.increments.eigenstrain(body)))
         if plastic:
             self._check_box(step)
         return inc
