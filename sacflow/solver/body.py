@@ -33,6 +33,10 @@ class BodyState:
         Residual stress of εp [Pa] (without the initial stress of the case).
     residual_displacement : ndarray, shape (n1, n2)
         Residual normal surface displacement of εp [m].
+    equivalent_eigenstrain : ndarray, shape (m, 6), or None
+        Equivalent eigenstrain ε* of the cells of the elastic inhomogeneities
+        (:mod:`sacflow.solver.inclusion`), None without them. With it the residual stress and
+        displacement are those of ``εp + ε*``: the disturbance of the inhomogeneities included.
     """
 
     plastic_strain: np.ndarray
@@ -41,6 +45,7 @@ class BodyState:
     backstress: np.ndarray | None
     residual_stress: np.ndarray
     residual_displacement: np.ndarray
+    equivalent_eigenstrain: np.ndarray | None = None
 
 
 @dataclass
@@ -57,3 +62,7 @@ class ContactHistory:
     pressure: np.ndarray | None = None
     first_contact_offset: float | None = None
     converged: tuple[np.ndarray, tuple[slice, slice]] | None = None
+
+    def remember(self, pressure: np.ndarray, window: tuple[slice, slice], load: float) -> None:
+        """Keep the converged ``pressure`` at ``window`` (None when unloaded) as ``converged``."""
+        self.converged = (pressure, window) if load > 0.0 and pressure.any() else None

@@ -31,6 +31,8 @@ from sacflow.solver.operators import Operators
 if TYPE_CHECKING:
     from scipy.sparse.linalg import LinearOperator
 
+    from sacflow.solver.inclusion import EquivalentInclusion
+
 __all__ = ["FD_STEP", "TINY", "PlasticFixedPoint", "PlasticUpdate", "largest_magnitude"]
 
 #: Smallest scale of a relative residual (guards the division when everything is zero).
@@ -80,11 +82,15 @@ class PlasticFixedPoint:
         Plasticity tolerance, iteration limit and Anderson depth.
     depth : ndarray
         Depths of the cuboid layers [m] (depth-dependent laws).
+    inclusion : EquivalentInclusion or None
+        The body's elastic inhomogeneities: no plastic flow in their cells, and the iterate
+        carries their equivalent eigenstrain there (:mod:`sacflow.solver.inclusion`).
     """
 
     def __init__(self, operators: Operators, material: Material, settings: SolverSettings,
-                 depth: np.ndarray) -> None:
+                 depth: np.ndarray, inclusion: EquivalentInclusion | None = None) -> None:
         self.operators = operators
+        self.inclusion = inclusion
         self.law = material.law
         self.kinematic = material.kinematic
         self.mu = material.shear_modulus
@@ -129,6 +135,12 @@ class PlasticFixedPoint:
         one-step return's tangent: an approximation of the map's, which Newton–Krylov allows
         (its steps are checked on ``G`` itself).
 
+        With elastic inhomogeneities the return is masked in their cells and ``G`` there is the
+        Krylov-corrected equivalent eigenstrain of the evaluated stress
+        (:meth:`~sacflow.solver.inclusion.EquivalentInclusion.update`): the fixed point solves
+        the plastic increment and Eshelby's equivalence together (the Jacobian is then always
+        the finite-difference one).
+
         Raises
         ------
         ConvergenceError
@@ -137,6 +149,8 @@ class PlasticFixedPoint:
         from scipy.sparse.linalg import LinearOperator  # plastic runs only
 
         follows = coupled if pressure_follows is None else pressure_follows
+        inclusion = self.inclusion
+        follows = follows or (inclusion is not None and inclusion.active)
         plastic_strain, equivalent, backstress = state
         mu, shape, n = self.mu, x.shape, x.size
         applications = 0
@@ -152,6 +166,13 @@ class PlasticFixedPoint:
             trial += stress
             ret, full = self._return(trial, equivalent, backstress, start_stress)
             gx = ret.plastic_strain_increment
+            if inclusion is not None:
+                self._mask(ret, backstress)
+                if full is not ret:
+                    self._mask(full, backstress)
+                if inclusion.active:
+                    cells = inclusion.cells
+                    gx[cells] = inclusion.update(x[cells], stress[cells], step)
             scale = max(largest_magnitude(gx), largest_magnitude(x), strain_scale)
             return Evaluation(gx, largest_magnitude(gx - x) / scale, (trial, full, ret))
 
@@ -169,13 +190,19 @@ class PlasticFixedPoint:
                 applications += 1
                 v = v.reshape(shape)
                 residual = self.operators.residual_stress(v)
-                product: np.ndarray = (v - tangent.apply(residual + 2.0 * mu * v)).ravel()
+                response = tangent.apply(residual + 2.0 * mu * v)
+                if inclusion is not None:
+                    response[inclusion.elastic] = 0.0
+                product: np.ndarray = (v - response).ravel()
                 return product
 
             return LinearOperator((n, n), matvec=matvec, dtype=float)
 
         def accept(x: np.ndarray, ev: Evaluation) -> bool:
-            return converged(ev.residual) or (not ev.data[1].plastic.any() and not x.any())
+            if converged(ev.residual):
+                return True
+            elastic = not ev.data[1].plastic.any() and not x.any()
+            return elastic and (inclusion is None or not inclusion.active)
 
         opts = self.settings
         try:
@@ -192,6 +219,16 @@ class PlasticFixedPoint:
         dx = out.x if coupled else ret.plastic_strain_increment
         return PlasticUpdate(dx, ret.equivalent_plastic_strain_increment, applications,
                              out.evaluation.residual, ret.backstress)
+
+    def _mask(self, ret: ReturnResult, backstress: np.ndarray | None) -> None:
+        """No plastic flow in the cells of the elastic inhomogeneities (in place)."""
+        assert self.inclusion is not None
+        elastic = self.inclusion.elastic
+        ret.plastic_strain_increment[elastic] = 0.0
+        ret.equivalent_plastic_strain_increment[elastic] = 0.0
+        ret.plastic[elastic] = False
+        if ret.backstress is not None and backstress is not None:
+            ret.backstress[elastic] = backstress[elastic]
 
     def _return(self, trial: np.ndarray, equivalent: np.ndarray, backstress: np.ndarray | None,
                 start_stress: np.ndarray | None) -> tuple[ReturnResult, ReturnResult]:

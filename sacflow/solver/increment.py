@@ -18,6 +18,11 @@ loops instead; both converge to the same increment, the single loop with fewer r
 applications: ``benchmarks/elastic_plastic.py`` prints both counts). At convergence the seed's
 two criteria hold: the plastic strain increment and the residual displacement increment have
 stopped changing, and von Mises = σ_Y on plastic points.
+
+Elastic inhomogeneities (:mod:`sacflow.solver.inclusion`): the iterate carries their equivalent
+eigenstrain ε* in their cells (where the plastic strain does not flow), so that the residual
+stress and the residual surface displacement the fixed point applies, and the contact's gap,
+are those of ``εp + ε*``; an elastic body with inhomogeneities runs the same fixed point.
 """
 
 from __future__ import annotations
@@ -34,6 +39,7 @@ from sacflow.solver.anderson import AndersonMixer
 from sacflow.solver.body import BodyState, ContactHistory
 from sacflow.solver.fixed_point import TINY, PlasticFixedPoint, PlasticUpdate
 from sacflow.solver.geometry import LoadGeometry
+from sacflow.solver.inclusion import EquivalentInclusion
 from sacflow.solver.inputs import Material, SolverSettings
 from sacflow.solver.layout import StepPlan
 from sacflow.solver.operators import Operators
@@ -59,7 +65,9 @@ class Increment:
     Window slices, its initial gap, the contact solution, the plastic update ``(Δεp, Δp)``
     (None when elastic), iteration counts, the final residuals of the plasticity and coupling
     loops (0 when elastic), when the solver already has them the residual stress and surface
-    displacement of ``εp_old + Δεp``, and with kinematic hardening the updated backstress.
+    displacement of ``εp_old + Δεp`` (+ ε*), with kinematic hardening the updated backstress,
+    and with elastic inhomogeneities their equivalent eigenstrain ε* on their cells (m, 6)
+    and the Krylov iterations it took.
     """
 
     window: tuple[slice, slice]
@@ -72,6 +80,8 @@ class Increment:
     plasticity_residual: float = 0.0
     coupling_residual: float = 0.0
     backstress: np.ndarray | None = None
+    equivalent_eigenstrain: np.ndarray | None = None
+    inclusion_iterations: int = 0
 
 
 @dataclass
@@ -109,17 +119,22 @@ class IncrementSolver:
         Depths of the cuboid layers [m].
     initial_stress : ndarray or None
         Initial residual stress of the layers (nz, 6) [Pa], or None.
+    inclusion : EquivalentInclusion or None
+        The body's elastic inhomogeneities, or None.
     """
 
     def __init__(self, operators: Operators, geometry: LoadGeometry, material: Material,
                  settings: SolverSettings, depth: np.ndarray,
-                 initial_stress: np.ndarray | None) -> None:
+                 initial_stress: np.ndarray | None,
+                 inclusion: EquivalentInclusion | None = None) -> None:
         self.operators = operators
         self.geometry = geometry
-        self.plastic = material.plastic
+        self.inclusion = inclusion if inclusion is not None and inclusion.active else None
+        # the fixed point runs for a plastic body, or for the equivalent eigenstrain
+        self.plastic = material.plastic or self.inclusion is not None
         self.settings = settings
         self.initial_stress = initial_stress
-        self.fixed_point = PlasticFixedPoint(operators, material, settings, depth)
+        self.fixed_point = PlasticFixedPoint(operators, material, settings, depth, inclusion)
 
     def with_initial_stress(self, stress: np.ndarray) -> np.ndarray:
         """``stress`` plus the initial stress of a chained case, if any (in place)."""
@@ -170,15 +185,37 @@ class IncrementSolver:
         start = (self.start_stress(body, history)
                  if self.settings.return_integration == "extrapolated" else None)
         fields = None
+        inclusion = self.inclusion
+        if inclusion is not None:
+            inclusion.iterations = 0
         if self.settings.scheme == "coupled":
             result, update, fields, change = self.coupled(solve, sl, step, body, fixed is None,
                                                           start)
         else:
             result, update, change = self.nested(solve, sl, step, body, start)
+        plastic_strain, eps_star, iterations = update.plastic_strain, None, 0
+        if inclusion is not None:  # the iterate's ε* out of the plastic strain increment
+            eps_star = plastic_strain[inclusion.cells]
+            plastic_strain = plastic_strain.copy()
+            plastic_strain[inclusion.cells] = 0.0
+            iterations = inclusion.iterations
         return Increment(sl, geometry, result,
-                         (update.plastic_strain, update.equivalent_plastic_strain),
+                         (plastic_strain, update.equivalent_plastic_strain),
                          contact_iterations, update.applications, fields, update.residual, change,
-                         update.backstress)
+                         update.backstress, eps_star, iterations)
+
+    def eigenstrain(self, body: BodyState) -> np.ndarray:
+        """Return the body's eigenstrain: its plastic strain, plus ε* in the inhomogeneities."""
+        if self.inclusion is None:
+            return body.plastic_strain
+        return self.inclusion.total(body.plastic_strain, body.equivalent_eigenstrain)
+
+    def start(self, body: BodyState) -> np.ndarray:
+        """Return the fixed point's first iterate: zero, the last ε* in the inhomogeneities."""
+        x = np.zeros(body.plastic_strain.shape)  # a moved copy of the last increment: worse
+        if self.inclusion is not None and body.equivalent_eigenstrain is not None:
+            x[self.inclusion.cells] = body.equivalent_eigenstrain
+        return x
 
     def start_stress(self, body: BodyState, history: ContactHistory) -> np.ndarray:
         """Converged stress σ_n [Pa] at the start of the increment, (n1, n2, nz, 6).
@@ -251,20 +288,23 @@ class IncrementSolver:
                 total = ops.eigenstrain.stress(traction, pressure)
                 # the residual stress alone, if this is the last evaluation: made at the end
                 last.stress, last.pressure = total, pressure
-                return self.with_initial_stress(total), apps
+                if self.initial_stress is None:
+                    return total, apps
+                return total + self.initial_stress, apps  # ``total`` stays without it
             last.stress, last.pressure = stress, None
             return self.load_stress(result.pressure, sl) + stress, apps
 
         def converged(res: float) -> bool:
             return res < opts.plasticity_tolerance and last.change < opts.coupling_tolerance
 
-        x = np.zeros(body.plastic_strain.shape)  # a moved copy of the last increment: worse
+        x = self.start(body)
         try:
             update = self.fixed_point.solve(
                 sigma, x, step, converged, "plasticity", self._state(body), coupled=True,
                 pressure_follows=pressure_follows, start_stress=start_stress)
         except ConvergenceError as exc:
-            if exc.residual < opts.plasticity_tolerance:  # the residual displacement still moved
+            if exc.what == "plasticity" and exc.residual < opts.plasticity_tolerance:
+                # the plastic strain converged, the residual displacement still moved
                 raise ConvergenceError("coupling", step=step, residual=last.change,
                                        tolerance=opts.coupling_tolerance,
                                        iterations=exc.iterations) from None
@@ -288,7 +328,7 @@ class IncrementSolver:
         final coupling change.
         """
         opts, ops = self.settings, self.operators
-        x = np.zeros(body.plastic_strain.shape)
+        x = self.start(body)
         u_old = body.residual_displacement
         u_used: np.ndarray = u_old
         applications = 0
@@ -312,7 +352,7 @@ class IncrementSolver:
             x, dp = update.plastic_strain, update.equivalent_plastic_strain
             applications += update.applications
             total = PlasticUpdate(x, dp, applications, update.residual, update.backstress)
-            if not dp.any():
+            if not dp.any() and self.inclusion is None:
                 return result, total, 0.0
             u_new = ops.eigenstrain.residual_displacement(body.plastic_strain + x)
             scale = max(float(np.abs(u_new - u_old).max()), u_floor)

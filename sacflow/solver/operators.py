@@ -5,8 +5,9 @@
 * the pressure → stress convolution on the body grid (one operator serves every load position;
   with friction its kernel adds the shear traction's stress per unit pressure), its spectra
   kept in the kernel disk cache;
-* for a plastic body, the eigenstrain operator (residual stress and residual surface
-  displacement of the plastic strain, :class:`~sacflow.kernels.eigenstrain.HalfSpaceEigenstrain`).
+* for a plastic body, or one with elastic inhomogeneities, the eigenstrain operator (residual
+  stress and residual surface displacement of the plastic strain and of the equivalent
+  eigenstrain, :class:`~sacflow.kernels.eigenstrain.HalfSpaceEigenstrain`).
 """
 
 from __future__ import annotations
@@ -50,8 +51,9 @@ class Operators:
     traction : tuple of float or None
         Shear traction per unit pressure (friction), or None.
     plastic : bool
-        Whether the eigenstrain operator is needed (elastic runs do without it, and without
-        numba).
+        Whether the eigenstrain operator is needed: a plastic body, or one with elastic
+        inhomogeneities (their equivalent eigenstrain); elastic homogeneous runs do without
+        it, and without numba.
     threads : int or None
         FFT threads.
     """
@@ -107,7 +109,7 @@ class Operators:
 
     @property
     def eigenstrain(self) -> HalfSpaceEigenstrain:
-        """The eigenstrain operator (plastic bodies only)."""
+        """The eigenstrain operator (plastic bodies, or with inhomogeneities, only)."""
         if self.eigen is None:
             raise RuntimeError("an elastic body has no eigenstrain operator")
         return self.eigen

@@ -27,6 +27,7 @@ from sacflow.machine.threads import single_threaded_blas
 from sacflow.mechanics.initial_state import check_initial_yield, map_state
 from sacflow.solver.body import BodyState, ContactHistory
 from sacflow.solver.geometry import LoadGeometry
+from sacflow.solver.inclusion import EquivalentInclusion, inclusion_for
 from sacflow.solver.increment import Increment, IncrementSolver
 from sacflow.solver.inputs import SolverInputs
 from sacflow.solver.layout import StepPlan, body_grid, halfway, layer_centres
@@ -64,6 +65,9 @@ class Simulation:
         Number of increments of the load path.
     body : BodyState
         The body's plastic state and residual fields after the last increment.
+    inclusion : EquivalentInclusion or None
+        The phase field and the equivalent-eigenstrain solver of the body's elastic
+        inhomogeneities (:mod:`sacflow.solver.inclusion`), None without any.
     """
 
     def __init__(self, inputs: SolverInputs) -> None:
@@ -85,14 +89,18 @@ class Simulation:
         self.coords = GridCoords(x1, x2, layer_centres(self.nz, self.dz))
         self.geometry = LoadGeometry(inputs.contact, self.coords, spec.cell, grid.window,
                                      grid.origin)
+        with single_threaded_blas():
+            self.inclusion: EquivalentInclusion | None = inclusion_for(inputs, self.coords)
+        eigenstrains = material.plastic or (self.inclusion is not None and self.inclusion.active)
         with single_threaded_blas():  # the kernels' set-up: see sacflow.machine.threads
             self.operators = Operators(
                 grid.window, self.body_shape, spec.cell, self.nz, self.dz, material.E,
-                material.nu, inputs.contact.e_star, inputs.contact.traction, material.plastic,
+                material.nu, inputs.contact.e_star, inputs.contact.traction, eigenstrains,
                 inputs.settings.fft_threads)
         initial = inputs.initial
         self.increments = IncrementSolver(self.operators, self.geometry, material,
-                                          inputs.settings, self.coords.x3, initial.stress)
+                                          inputs.settings, self.coords.x3, initial.stress,
+                                          self.inclusion)
         self.states = StateBuilder(inputs, self.coords, self.increments)
         self.body = self._initial_body()
         self.history = ContactHistory()
@@ -216,17 +224,19 @@ class Simulation:
                                    "kinematic hardening needs: run with --restart")
             body.backstress = np.asarray(stored, dtype=float).reshape(tensor).copy()
         body.residual_displacement = arrays["residual_displacement"]
-        if self.operators.eigen is not None and body.plastic_strain.any():
+        if (inclusion := self.increments.inclusion) is not None:  # ε* (zero: re-solved)
+            body.equivalent_eigenstrain = inclusion.restored(restart.get("equivalent_eigenstrain"))
+        eigenstrain = self.increments.eigenstrain(body)
+        if self.operators.eigen is not None and eigenstrain.any():
             with single_threaded_blas():
-                body.residual_stress = self.operators.residual_stress(body.plastic_strain)
+                body.residual_stress = self.operators.residual_stress(eigenstrain)
         else:
             body.residual_stress = np.zeros_like(body.plastic_strain)
         plan = self.steps[step]
         slices = self.geometry.window_slices(plan.position)
         window = arrays["pressure"][slices]
         self.history.pressure = window.copy() if plan.load > 0.0 and window.any() else None
-        self.history.converged = (None if self.history.pressure is None
-                                  else (self.history.pressure.copy(), slices))
+        self.history.remember(window.copy(), slices, plan.load)
         self.history.first_contact_offset = first_contact_offset
 
     def solve_increment(self, step: int, plan: StepPlan) -> Increment:
@@ -284,6 +294,7 @@ class Simulation:
             last,
             contact_iterations=first.contact_iterations + last.contact_iterations,
             plasticity_iterations=first.plasticity_iterations + last.plasticity_iterations,
+            inclusion_iterations=first.inclusion_iterations + last.inclusion_iterations,
         )
         return merged, n_first + n_last
 
@@ -292,22 +303,27 @@ class Simulation:
         if plan.load <= 0.0:
             self.history.pressure = None
         inc = self.solve_increment(step, plan)
-        self.history.converged = (
-            (inc.contact.pressure, inc.window) if plan.load > 0.0 and inc.contact.pressure.any()
-            else None)
+        self.history.remember(inc.contact.pressure, inc.window, plan.load)
         body = self.body
-        if inc.update is not None and inc.update[0].any():
+        plastic = inc.update is not None and inc.update[0].any()
+        if plastic:
+            assert inc.update is not None
             deps, dp = inc.update
             body.plastic_strain += deps
             body.equivalent_plastic_strain += dp
             if body.backstress is not None and inc.backstress is not None:
                 body.backstress = inc.backstress
-            # residual fields of the converged plastic strain (known from the last evaluation)
+        eps_star = inc.equivalent_eigenstrain
+        if eps_star is not None:
+            body.equivalent_eigenstrain = eps_star
+        if plastic or eps_star is not None:
+            # residual fields of the converged εp (+ ε*): known from the last evaluation
             if inc.residual_fields is not None:
                 body.residual_stress, body.residual_displacement = inc.residual_fields
             else:
                 body.residual_stress, body.residual_displacement = (
-                    self.operators.residual_fields(body.plastic_strain))
+                    self.operators.residual_fields(self.increments.eigenstrain(body)))
+        if plastic:
             self._check_box(step)
         return inc
 

@@ -92,9 +92,10 @@ RESTART_FIELDS: tuple[str, ...] = (
     "residual_displacement",
     "pressure",
 )
-#: Internal variables of some materials only, kept with the step when the solver has them: the
-#: backstress of kinematic hardening.
-OPTIONAL_RESTART_FIELDS: tuple[str, ...] = ("backstress",)
+#: Internal variables of some bodies only, kept with the step when the solver has them: the
+#: backstress of kinematic hardening, the equivalent eigenstrain of elastic inhomogeneities
+#: (the warm start of the next step's; a resume without it re-solves it from zero).
+OPTIONAL_RESTART_FIELDS: tuple[str, ...] = ("backstress", "equivalent_eigenstrain")
 
 
 @dataclass(frozen=True)
@@ -134,7 +135,10 @@ class State:
     ``restart`` maps the names of :data:`RESTART_FIELDS` to the solver's state after the step
     and ``first_contact_offset`` is the initial-gap offset of the first contact [m] (the origin
     of the approach): with them a run goes on after this step without replaying it (empty for
-    simulations that cannot).
+    simulations that cannot). ``inclusion_iterations`` (:data:`INCLUSION_SCALARS`) counts the
+    GMRES iterations of the equivalent-eigenstrain solves of the step (0 without elastic
+    inhomogeneities); the volume fields of a body with inhomogeneities add
+    :data:`INCLUSION_FIELDS`.
     """
 
     step: int

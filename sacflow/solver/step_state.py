@@ -18,7 +18,7 @@ from sacflow.solver.body import BodyState
 from sacflow.solver.increment import Increment, IncrementSolver
 from sacflow.solver.inputs import SolverInputs
 from sacflow.solver.layout import StepPlan
-from sacflow.solver.state import VOLUME_FIELDS, GridCoords, State
+from sacflow.solver.state import INCLUSION_FIELDS, VOLUME_FIELDS, GridCoords, State
 
 __all__ = ["StateBuilder"]
 
@@ -45,11 +45,13 @@ class StateBuilder:
         self.coords = coords
         self.body_shape = (coords.x1.size, coords.x2.size)
         self.increments = increments
+        self.inhomogeneities = bool(inputs.inhomogeneities)
 
     def volume_fields(self, body: BodyState, result: ContactResult, sl: tuple[slice, slice],
                       names: Sequence[str] | None = None) -> dict[str, np.ndarray]:
         """Volume fields of the state (all, or those in ``names``: only what they need)."""
-        wanted = set(VOLUME_FIELDS if names is None else names)
+        every = (*VOLUME_FIELDS, *(INCLUSION_FIELDS if self.inhomogeneities else ()))
+        wanted = set(every if names is None else names)
         out: dict[str, np.ndarray] = {}
         if wanted & {"stress", "von_mises"}:
             stress = self.increments.load_stress(result.pressure, sl) + body.residual_stress
@@ -67,7 +69,18 @@ class StateBuilder:
         out["equivalent_plastic_strain"] = equivalent.copy()
         if body.backstress is not None:
             out["backstress"] = body.backstress.copy()
+        if self.inhomogeneities:
+            out.update(self._inclusion_fields(body))
         return {name: array for name, array in out.items() if name in wanted}
+
+    def _inclusion_fields(self, body: BodyState) -> dict[str, np.ndarray]:
+        """``equivalent_eigenstrain`` (n1, n2, nz, 6) and ``phase`` (n1, n2, nz) int8."""
+        inclusion = self.increments.fixed_point.inclusion
+        assert inclusion is not None
+        eps = np.zeros((*inclusion.phase.shape, 6))
+        if body.equivalent_eigenstrain is not None:
+            inclusion.embed(body.equivalent_eigenstrain, eps)
+        return {"equivalent_eigenstrain": eps, "phase": inclusion.phase.copy()}
 
     def _shear_traction(self, pressure: np.ndarray) -> dict[str, np.ndarray]:
         """``{"shear_traction": μ p d}`` (nx1, nx2, 2) [Pa] with a ``[friction]`` table, else {}."""
@@ -85,7 +98,15 @@ class StateBuilder:
             "residual_displacement": keep(body.residual_displacement),
             "pressure": pressure,
             **({} if body.backstress is None else {"backstress": body.backstress.copy()}),
+            **self._inclusion_restart(body),
         }
+
+    def _inclusion_restart(self, body: BodyState) -> dict[str, np.ndarray]:
+        """``{"equivalent_eigenstrain": ε*}`` on the body grid when the body has one, else {}."""
+        inclusion = self.increments.inclusion
+        if inclusion is None or body.equivalent_eigenstrain is None:
+            return {}
+        return {"equivalent_eigenstrain": inclusion.embed(body.equivalent_eigenstrain)}
 
     def _surface(self, body: BodyState, inc: Increment,
                  pressure: np.ndarray) -> dict[str, np.ndarray]:
@@ -134,6 +155,7 @@ class StateBuilder:
             max_pressure=float(result.pressure.max(initial=0.0)),
             contact_iterations=int(inc.contact_iterations),
             plasticity_iterations=int(inc.plasticity_iterations),
+            inclusion_iterations=int(inc.inclusion_iterations),
             converged=contact_ok and plastic_ok and coupling_ok,
             contact_converged=contact_ok,
             plasticity_converged=plastic_ok,
