@@ -4,7 +4,8 @@ A stored run is named by the ``case_id`` of its case: the first 12 hex digits of
 the canonical JSON of the case's identity, its JSON form without what does not change the
 stored numbers (:data:`NOT_IN_IDENTITY`, options added later at their default) and with the
 files it names replaced by their contents' fingerprints (:class:`FileFingerprints`): a measured
-surface by the SHA-256 of its file, the source run of a chained case by that run's ``case_id``.
+surface and the cells file of an inhomogeneity by the SHA-256 of the file, the source run of a
+chained case by that run's ``case_id``.
 
 This layer reads no file. The fingerprints are read by the storage layer
 (:func:`sacflow.storage.fingerprints.file_fingerprints`) once per case: where a case enters
@@ -58,7 +59,10 @@ OPTIONAL_TABLES: tuple[str, ...] = ("friction", "body.hardening.kinematic")
 #: case_id of a case that does not set them is the one it had before they existed).
 DEFAULTS_LEFT_OUT: dict[str, Any] = {"output.volume_precision": "float64",
                                      "output.every_step": [],
-                                     "solver.residual_displacement_in_gap": True}
+                                     "solver.residual_displacement_in_gap": True,
+                                     "body.inhomogeneity": [],
+                                     "solver.inclusion_tolerance": 1e-8,
+                                     "solver.inclusion_max_iterations": 200}
 #: Load-path segment options added after runs were stored, left out of the identity when unset.
 OPTIONAL_SEGMENT_KEYS: tuple[str, ...] = ("passes", "between", "lift_increments")
 #: Hex digits of a case id.
@@ -76,10 +80,14 @@ class FileFingerprints:
         not where the file lies (a moved file keeps the id, an edited one not).
     source_case_id : str or None
         ``case_id`` of the run a chained case starts from (``initial_state.run``).
+    cells_digests : tuple of (str or None)
+        One per inhomogeneity of the body, in order: the first 16 hex digits of the SHA-256 of
+        its cells file (``shape = "cells"``), None for the other shapes (empty: none).
     """
 
     surface_digest: str | None = None
     source_case_id: str | None = None
+    cells_digests: tuple[str | None, ...] = ()
 
 
 #: Reads the fingerprints of the files a case names (installed by the storage layer).
@@ -100,8 +108,12 @@ def install_file_fingerprint_reader(reader: FileFingerprintReader) -> None:
 
 
 def names_files(case: Case) -> bool:
-    """Tell whether ``case`` names files whose contents enter its id (surface, source run)."""
-    return case.surface.kind == "measured" or case.initial_state is not None
+    """Tell whether ``case`` names files whose contents enter its id.
+
+    Its measured surface, its source run, the cells file of an inhomogeneity.
+    """
+    return (case.surface.kind == "measured" or case.initial_state is not None
+            or any(item.cells is not None for item in case.body.inhomogeneity))
 
 
 def read_file_fingerprints(case: Case) -> FileFingerprints:
@@ -117,7 +129,8 @@ def read_file_fingerprints(case: Case) -> FileFingerprints:
         return FileFingerprints()
     if not _readers:
         raise RuntimeError(
-            f"case {case.name!r} names files (surface.path or initial_state.run) whose contents "
+            f"case {case.name!r} names files (surface.path, initial_state.run or "
+            "body.inhomogeneity.<i>.cells) whose contents "
             "enter its case_id, and no reader of them is installed: import sacflow.storage "
             "(sacflow.load_case and sacflow.run do)"
         )
@@ -149,7 +162,8 @@ def identity_of(data: dict[str, Any], fingerprints: FileFingerprints) -> dict[st
     dict
         ``data`` without :data:`NOT_IN_IDENTITY`, the optional segment keys when unset, the
         optional tables when absent and :data:`DEFAULTS_LEFT_OUT` at their default; a measured
-        surface's path replaced by ``sha256:<digest>``, a source run by ``case_id:<id>``.
+        surface's path and an inhomogeneity's cells file replaced by ``sha256:<digest>``, a
+        source run by ``case_id:<id>``.
     """
     for dotted in NOT_IN_IDENTITY:
         _drop(data, dotted, lambda value: True)
@@ -167,6 +181,10 @@ def identity_of(data: dict[str, Any], fingerprints: FileFingerprints) -> dict[st
     if data.get("initial_state") is not None and fingerprints.source_case_id:
         # the source's identity counts, not where its file lies
         data["initial_state"]["run"] = f"case_id:{fingerprints.source_case_id}"
+    items = data.get("body", {}).get("inhomogeneity", ())
+    for item, digest in zip(items, fingerprints.cells_digests, strict=False):
+        if digest:  # the points count, not where the file lies
+            item["cells"] = f"sha256:{digest}"
     return data
 
 
