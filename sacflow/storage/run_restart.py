@@ -8,9 +8,9 @@ backstress of kinematic hardening, the equivalent eigenstrain of inhomogeneities
 start of their solve); and the first-contact offset), except the arrays that the part already
 stores as output fields with the same values (attribute ``in_output``) and those holding one
 value everywhere (attribute ``uniform``). The consolidated file does not keep them: a finished
-run does not resume. An interrupted run resumes from its last sound part (:func:`read_restart`); one whose
-parts have no state (written by a simulation that cannot resume, or by an older sacflow) is
-replayed instead.
+run does not resume. An interrupted run resumes from its last sound part
+(:func:`read_restart`); one whose parts have no state (written by a simulation that cannot
+resume, or by an older sacflow) is replayed instead.
 """
 
 from __future__ import annotations
