@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from sacflow.config.base import field_error
+from sacflow.config.base import MAX_CELLS, field_error
 from sacflow.config.inclusions import SIZE_FIELDS, Inhomogeneity
 from sacflow.config.materials import Elastic
 from sacflow.solver.layout import auto_depth, layer_centres
@@ -33,6 +33,7 @@ __all__ = [
     "box_depth",
     "cells_problem",
     "check_inhomogeneities",
+    "contains",
     "region_cells",
 ]
 
@@ -87,6 +88,15 @@ def body_cells(case: Case) -> BodyCells:
     return BodyCells(x1, x2, layer_centres(grid.nz, dz), (dx1, dx2, dz))
 
 
+def contains(item: Inhomogeneity, points: np.ndarray) -> np.ndarray:
+    """Tell which of ``points`` (..., 3) [m] lie in a sphere, ellipsoid or cuboid (surface in)."""
+    assert item.centre is not None  # guaranteed by validation (not for cells)
+    scaled = (points - np.array(item.centre)) / np.array(item.semi_axes_m())
+    if item.shape == "cuboid":
+        return np.asarray((np.abs(scaled) <= 1.0).all(axis=-1))
+    return np.asarray((scaled * scaled).sum(axis=-1) <= 1.0)
+
+
 def region_cells(item: Inhomogeneity, cells: BodyCells,
                  points: np.ndarray | None = None) -> set[tuple[int, int, int]]:
     """Return the indices (i1, i2, i3) of the body cells an inhomogeneity occupies.
@@ -97,22 +107,52 @@ def region_cells(item: Inhomogeneity, cells: BodyCells,
     if item.shape == "cells":
         if points is None or len(points) == 0:
             return set()
-        index = [np.floor((points[:, k] - cells.bounds(k)[0]) / cells.size[k]).astype(int)
-                 for k in range(3)]
-        return {(int(a), int(b), int(c)) for a, b, c in zip(*index, strict=True)}
-    assert item.centre is not None  # guaranteed by validation
-    centre, semi = np.array(item.centre), np.array(item.semi_axes_m())
-    near = [np.nonzero(np.abs(cells.centres[k] - centre[k]) <= semi[k])[0] for k in range(3)]
-    if any(n.size == 0 for n in near):
-        return set()
-    grids = np.meshgrid(*(cells.centres[k][near[k]] for k in range(3)), indexing="ij")
-    scaled = [(g - centre[k]) / semi[k] for k, g in enumerate(grids)]
-    if item.shape == "cuboid":
-        inside = np.ones(grids[0].shape, dtype=bool)
-    else:
-        inside = sum(s * s for s in scaled) <= 1.0
-    return {(int(near[0][a]), int(near[1][b]), int(near[2][c]))
-            for a, b, c in zip(*np.nonzero(inside), strict=True)}
+        index = _cell_index(points, cells)
+        return {(int(a), int(b), int(c)) for a, b, c in index}
+    found: set[tuple[int, int, int]] = set()
+    near = _near(item, cells)
+    for i in near[0]:
+        centres = _slice_centres(cells, i, near[1], near[2])
+        inside = contains(item, centres)
+        found |= {(int(i), int(near[1][b]), int(near[2][c]))
+                  for b, c in zip(*np.nonzero(inside), strict=True)}
+    return found
+
+
+def _cell_index(points: np.ndarray, cells: BodyCells) -> np.ndarray:
+    """Index (k, 3) of the body cell holding each of ``points`` (k, 3) [m]."""
+    low = np.array([cells.bounds(k)[0] for k in range(3)])
+    return np.floor((points - low) / np.array(cells.size)).astype(int)
+
+
+def _near(item: Inhomogeneity, cells: BodyCells) -> list[np.ndarray]:
+    """Per axis, the indices of the cell centres within the item's bounding box."""
+    assert item.centre is not None  # guaranteed by validation (not for cells)
+    semi = item.semi_axes_m()
+    return [np.nonzero(np.abs(cells.centres[k] - item.centre[k]) <= semi[k])[0]
+            for k in range(3)]
+
+
+def _slice_centres(cells: BodyCells, i: int, j: np.ndarray, k: np.ndarray) -> np.ndarray:
+    """Centres (len(j), len(k), 3) [m] of the cells (i, j, k) of one x1 slice."""
+    x2, x3 = np.meshgrid(cells.centres[1][j], cells.centres[2][k], indexing="ij")
+    return np.stack([np.full(x2.shape, cells.centres[0][i]), x2, x3], axis=-1)
+
+
+def _overlap(first: Inhomogeneity, second: Inhomogeneity, cells: BodyCells) -> bool:
+    """Tell whether two spheres, ellipsoids or cuboids share a cell (its centre in both).
+
+    Only the cells in both bounding boxes are looked at, one x1 slice at a time.
+    """
+    a, b = _near(first, cells), _near(second, cells)
+    both = [np.intersect1d(a[k], b[k]) for k in range(3)]
+    if any(n.size == 0 for n in both):
+        return False
+    for i in both[0]:
+        centres = _slice_centres(cells, i, both[1], both[2])
+        if (contains(first, centres) & contains(second, centres)).any():
+            return True
+    return False
 
 
 def check_inhomogeneities(case: Case) -> None:
@@ -125,22 +165,21 @@ def check_inhomogeneities(case: Case) -> None:
     if not items:
         return
     cells = body_cells(case)
-    occupied: list[tuple[int, set[tuple[int, int, int]]]] = []
+    checked: list[int] = []
     for index, item in enumerate(items):
         if item.shape == "cells":
             continue
         where = f"body.inhomogeneity.{index}"
         _check_inside(item, cells, where)
         _check_resolved(case, item, cells, where)
-        occupied.append((index, region_cells(item, cells)))
-    for position, (index, mine) in enumerate(occupied):
-        for other, theirs in occupied[:position]:
-            if mine & theirs:
+        for other in checked:
+            if _overlap(items[other], item, cells):
                 raise field_error(
-                    f"body.inhomogeneity.{index}.centre",
-                    f"overlaps body.inhomogeneity.{other}: {len(mine & theirs)} cells belong to "
-                    "both; move them apart or merge them into one",
+                    f"{where}.centre",
+                    f"overlaps body.inhomogeneity.{other}: cells of both; move them apart or "
+                    "merge them into one",
                 )
+        checked.append(index)
 
 
 def _check_inside(item: Inhomogeneity, cells: BodyCells, where: str) -> None:
@@ -172,17 +211,22 @@ def _check_resolved(case: Case, item: Inhomogeneity, cells: BodyCells, where: st
             continue
         scale = MIN_CELLS_PER_SEMI_AXIS * h / a
         if k == 2:
-            nz = math.ceil(case.grid.nz * scale)
-            refine = f"grid.nz >= {nz} (or a shallower grid.depth)"
+            refine = f"grid.nz >= {_needed(case.grid.nz, scale)} (or a shallower grid.depth)"
         else:
             name = ("grid.nx", "grid.ny")[k]
-            refine = f"{name} >= {math.ceil(getattr(case.grid, name[5:]) * scale)}"
+            refine = f"{name} >= {_needed(getattr(case.grid, name[5:]), scale)}"
         raise field_error(
             size_field,
             f"only {a / h:.3g} cells of {h:.3g} m per semi-axis along {axis} (need "
             f"{MIN_CELLS_PER_SEMI_AXIS:g}): refine the grid ({refine}) or enlarge the "
             "inhomogeneity",
         )
+
+
+def _needed(count: int, scale: float) -> str:
+    """Return the cell count ``count × scale`` rounded up, or the limit (:data:`MAX_CELLS`)."""
+    need = count * scale
+    return str(math.ceil(need)) if need <= MAX_CELLS else f"{MAX_CELLS} (the most a grid holds)"
 
 
 def cells_problem(case: Case, index: int, points: np.ndarray) -> str | None:
@@ -203,9 +247,11 @@ def cells_problem(case: Case, index: int, points: np.ndarray) -> str | None:
                     f"cuboid box along {axis} ({low:.4g} ... {high:.4g} m); move them, or "
                     "widen the window (grid.half_width, grid.extent) or deepen the box "
                     "(grid.depth)")
-    mine = region_cells(case.body.inhomogeneity[index], cells, points)
+    held = _cell_index(points, cells)
+    centres = np.stack([cells.centres[k][np.clip(held[:, k], 0, cells.centres[k].size - 1)]
+                        for k in range(3)], axis=-1)
     for other, item in enumerate(case.body.inhomogeneity):
-        if other != index and item.shape != "cells" and mine & region_cells(item, cells):
+        if other != index and item.shape != "cells" and contains(item, centres).any():
             return (f"{where}: its cells overlap body.inhomogeneity.{other}; move them apart "
                     "or merge them into one")
     return None

@@ -57,8 +57,8 @@ class Inhomogeneity(Model):
         "the case file); each point marks the body cell that contains it",
     )
     E: PositiveFloat = Field(
-        description="Young's modulus of the inhomogeneity [Pa], > 0; a cavity: a small one "
-        "(1e-3 of the body's), the equivalent eigenstrain of a zero modulus is unbounded"
+        description="Young's modulus of the inhomogeneity [Pa], > 0; for a cavity give a small "
+        "one (1e-3 of the body's): with E = 0 the equivalent eigenstrain is unbounded"
     )
     nu: PoissonRatio = Field(description="Poisson's ratio of the inhomogeneity")
 

@@ -143,7 +143,8 @@ class Output(Model):
         None,
         description="variables to store (default: all, except for an elastic body the plastic "
         "ones, which would hold zeros: residual_displacement, plastic_strain, "
-        "equivalent_plastic_strain, residual_stress, yield_stress)",
+        "equivalent_plastic_strain, residual_stress, yield_stress; and inclusion_iterations, "
+        "equivalent_eigenstrain, phase for a body with inhomogeneities only)",
     )
     volume_every: PositiveInt = Field(
         1, description="store volume fields every k steps (and at the last step)"
