@@ -26,10 +26,10 @@ import time
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import xarray as xr
 
 from sacflow.campaign import load_campaign, run_campaign
+from sacflow.compare.core import case_of
 from sacflow.errors import SacflowError
 from sacflow.storage.run_reader import open_run
 from sacflow.studies.dent_study import fatigue_results
@@ -73,9 +73,9 @@ def _study(args: argparse.Namespace) -> int:
     fatigue_dir = args.out / "fatigue"
     results = fatigue_results(outcome.manifest, fatigue_dir, progress=progress)
     stage = time.perf_counter()
-    rows = [_row(record, args.out, results[record["name"]])
-            for record in _finished(outcome.manifest) if record["name"] in results]
-    table = _write_table(rows, args.out / f"{STEM}-summary.csv")
+    rows = [summary_row(record, args.out, results[record["name"]])
+            for record in finished_cases(outcome.manifest) if record["name"] in results]
+    table = write_table(rows, args.out / f"{STEM}-summary.csv")
     figure = plot_index_vs_depth(rows)
     figure.savefig(args.out / f"{STEM}-index-vs-depth.png", dpi=120)
     for row in rows:
@@ -86,18 +86,19 @@ def _study(args: argparse.Namespace) -> int:
     return 0
 
 
-def _finished(manifest: Path) -> list[dict[str, Any]]:
+def finished_cases(manifest: Path) -> list[dict[str, Any]]:
     """The manifest records of the finished cases, in campaign order."""
     records = json.loads(Path(manifest).read_text())["cases"]
     return [r for r in records if r.get("status") in ("done", "skipped")]
 
 
-def _row(record: dict[str, Any], out: Path, fatigue_path: Path) -> dict[str, Any]:
+def summary_row(record: dict[str, Any], out: Path, fatigue_path: Path) -> dict[str, Any]:
     """One line of the summary: the case's inclusion, its fatigue maxima, its run's extremes."""
     run = open_run(out / record["path"])
-    case = json.loads(run.attrs["case"])
-    item = case["body"]["inhomogeneity"][0]
-    a = _contact_radius(run)
+    case = case_of(run)
+    item = case.body.inhomogeneity[0]
+    assert item.centre is not None  # a sphere
+    a = case.hertz().a  # Hertz contact radius at the largest load
     with xr.open_dataset(fatigue_path) as index:
         dang_van = float(index["dang_van_max"])
         dang_van_depth = float(index["dang_van_max_depth"])
@@ -106,10 +107,10 @@ def _row(record: dict[str, Any], out: Path, fatigue_path: Path) -> dict[str, Any
     iterations = run.get("inclusion_iterations")
     return {
         "case": record["name"],
-        "depth_over_a": item["centre"][2] / a,
-        "modulus_ratio": item["E"] / case["body"]["E"],
-        "inclusion_E": item["E"],
-        "inclusion_nu": item["nu"],
+        "depth_over_a": item.centre[2] / a,
+        "modulus_ratio": item.E / case.body.E,
+        "inclusion_E": item.E,
+        "inclusion_nu": item.nu,
         "dang_van_max": dang_van,
         "dang_van_max_depth_over_a": dang_van_depth / a,
         "crossland_max": crossland,
@@ -119,16 +120,11 @@ def _row(record: dict[str, Any], out: Path, fatigue_path: Path) -> dict[str, Any
     }
 
 
-def _contact_radius(run: xr.Dataset) -> float:
-    """Contact radius at the largest load [m]: from the largest contact area, a = √(A/π)."""
-    return float(np.sqrt(run["contact_area"].max() / np.pi))
-
-
 def _short(value: Any) -> str:
     return f"{value:.4g}" if isinstance(value, float) else str(value)
 
 
-def _write_table(rows: list[dict[str, Any]], path: Path) -> Path:
+def write_table(rows: list[dict[str, Any]], path: Path) -> Path:
     """Write the summary rows as CSV (a temporary file moved onto ``path``)."""
     tmp = path.with_name(f".{path.name}.tmp")
     with tmp.open("w", newline="", encoding="utf-8") as f:

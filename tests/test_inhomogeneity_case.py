@@ -420,3 +420,36 @@ def test_cells_file_reader_accepts_commas_and_comments(tmp_path):
     path = tmp_path / "p.csv"
     path.write_text("# x1, x2, x3\n1e-6, 2e-6, 3e-6  # first\n\n4e-6,5e-6,6e-6\n")
     assert_array_equal(read_cells_file(path), [[1e-6, 2e-6, 3e-6], [4e-6, 5e-6, 6e-6]])
+
+
+# --------------------------------------------------------------------------- campaign pipeline
+def test_the_campaign_pipeline_summarises_a_run_and_plots_index_against_depth(tmp_path, holed):
+    import importlib.util
+
+    from sacflow.compare.output import write
+
+    spec = importlib.util.spec_from_file_location(
+        "inclusion_campaign", ROOT / "pipelines" / "inclusion_campaign.py")
+    assert spec is not None and spec.loader is not None
+    pipeline = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(pipeline)
+    coords, phase = grid_of(holed)
+    with RunWriter(tmp_path / "one.nc", holed, coords, fields=holed.stored_fields()) as writer:
+        for step in range(3):
+            writer.append(inclusion_state(step, coords, phase, True))
+    index = fatigue(tmp_path / "one.nc")
+    write(index, tmp_path / "fatigue", "one-fatigue")
+    row = pipeline.summary_row({"name": "one", "path": "one.nc"}, tmp_path,
+                        tmp_path / "fatigue" / "one-fatigue.nc")
+    assert set(row) == set(pipeline.COLUMNS)
+    assert row["depth_over_a"] == pytest.approx(5e-6 / holed.hertz().a)
+    assert row["modulus_ratio"] == pytest.approx(380 / 210)
+    assert row["dang_van_max"] == float(index["dang_van_max"])
+    assert row["inclusion_iterations_total"] == 1 + 4 + 7
+    rows = [dict(row, depth_over_a=d, modulus_ratio=r, dang_van_max=d * r)
+            for d in (0.25, 0.48) for r in (1.0, 1.81)]
+    figure = pipeline.plot_index_vs_depth(rows)
+    assert [line.get_label() for line in figure.axes[0].lines][:2] == ["$E_i/E$ = 1",
+                                                                      "$E_i/E$ = 1.81"]
+    table = pipeline.write_table(rows, tmp_path / "summary.csv")
+    assert len(table.read_text().splitlines()) == 1 + len(rows)
