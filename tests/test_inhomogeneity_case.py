@@ -159,6 +159,24 @@ def test_any_region_validates_or_names_a_field_of_it(x, depth, radius, shape):
     assert region_cells(case.body.inhomogeneity[0], cells)
 
 
+ODD = st.one_of(st.none(), st.booleans(), st.integers(-3, 3), st.text(max_size=4),
+                st.sampled_from([0.0, -1e-6, 1e-300, 1e300, float("nan"), float("inf")]),
+                st.lists(st.floats(allow_nan=True, allow_infinity=True), max_size=4),
+                st.dictionaries(st.sampled_from(["law", "E"]), st.integers(), max_size=2))
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(changes=st.dictionaries(
+    st.sampled_from(["shape", "centre", "radius", "semi_axes", "half_sides", "cells", "E", "nu",
+                     "hardening", "colour"]), ODD, max_size=3))
+def test_any_mangled_inhomogeneity_validates_or_raises_config_error(changes):
+    item = {**SPHERE, **changes}
+    try:
+        validate_case(hertz_data(item), "case.toml")
+    except ConfigError as exc:
+        assert "body.inhomogeneity.0" in str(exc)
+
+
 # --------------------------------------------------------------------------- case ids
 def test_cases_without_inhomogeneities_keep_their_ids():
     shipped = load_case(HERTZ)
@@ -453,3 +471,23 @@ def test_the_campaign_pipeline_summarises_a_run_and_plots_index_against_depth(tm
                                                                       "$E_i/E$ = 1.81"]
     table = pipeline.write_table(rows, tmp_path / "summary.csv")
     assert len(table.read_text().splitlines()) == 1 + len(rows)
+
+
+def test_a_campaign_resolves_cells_files_against_the_files_naming_them(tmp_path):
+    from sacflow.campaign import expand_campaign, load_campaign
+
+    base_dir = tmp_path / "cases"
+    base_dir.mkdir()
+    write_points(base_dir / "points.txt", POINTS)
+    cells_case_file(base_dir, "points.txt")
+    write_points(tmp_path / "one.txt", POINTS[:1])
+    write_points(tmp_path / "two.txt", POINTS[1:])
+    campaign = tmp_path / "campaign.toml"
+    campaign.write_text('name = "cells"\nbase = "cases/case.toml"\n[[sweep]]\nmode = "product"\n'
+                        'parameters = { "body.inhomogeneity.0.cells" = ["one.txt", "two.txt"] }\n')
+    cases = [c.case for c in expand_campaign(load_campaign(campaign))]
+    assert [Path(c.body.inhomogeneity[0].cells) for c in cases] == [tmp_path / "one.txt",
+                                                                   tmp_path / "two.txt"]
+    assert cases[0].case_id != cases[1].case_id
+    base = load_case(base_dir / "case.toml")
+    assert Path(base.body.inhomogeneity[0].cells) == base_dir / "points.txt"

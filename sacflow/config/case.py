@@ -105,8 +105,9 @@ class Case(Model):
     def model_copy(self, *, update: Mapping[str, Any] | None = None, deep: bool = False) -> Self:
         """Return a copy (pydantic ``model_copy``); an updated copy gets its own ``case_id``.
 
-        The file fingerprints are kept unless ``update`` changes ``surface`` or
-        ``initial_state`` (then they are read again at the first use of the id).
+        The file fingerprints are kept unless ``update`` changes ``surface``,
+        ``initial_state`` or ``body`` (its inhomogeneities' cells files): they are then read
+        again at the first use of the id.
         """
         copied = super().model_copy(update=update, deep=deep)
         if update:
