@@ -359,7 +359,9 @@ def test_inclusion_fields_round_trip(tmp_path, holed):
     with netCDF4.Dataset(path) as nc:
         assert nc["phase"].dtype == np.int8 and nc["phase"]._FillValue == PHASE_FILL
         assert nc["inclusion_iterations"].dtype == np.int32
-    assert "phase" in run_info(path).variables
+    info = run_info(path)
+    assert "phase" in info.variables
+    assert info.case == holed and info.case.case_id == holed.case_id, "the case reads back"
 
 
 def test_volume_precision_applies_to_the_equivalent_eigenstrain(tmp_path):
