@@ -493,3 +493,15 @@ def test_a_campaign_resolves_cells_files_against_the_files_naming_them(tmp_path)
     assert cases[0].case_id != cases[1].case_id
     base = load_case(base_dir / "case.toml")
     assert Path(base.body.inhomogeneity[0].cells) == base_dir / "points.txt"
+
+
+def test_the_memory_estimate_counts_the_eigenstrain_operator_of_an_elastic_holed_body(holed):
+    from sacflow.config.solver_inputs import case_body_grid, estimate_case_memory
+    from sacflow.solver.memory_estimate import estimate_memory
+
+    plain = holed.model_copy(update={"body": holed.body.model_copy(update={"inhomogeneity": ()})})
+    assert holed.body.hardening.law == "elastic"
+    grid = case_body_grid(holed)
+    assert estimate_case_memory(holed) == estimate_memory(grid, True, 5)
+    assert estimate_case_memory(plain) == estimate_memory(grid, False, 5)
+    assert estimate_case_memory(holed).total > estimate_case_memory(plain).total

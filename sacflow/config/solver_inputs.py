@@ -243,9 +243,23 @@ def case_body_grid(case: Case) -> BodyGrid:
                             case_steps(case))
 
 
+def _eigenstrain_operator(case: Case) -> bool:
+    """Whether a run of ``case`` builds the eigenstrain operator.
+
+    A plastic body does, and so does one with inhomogeneities (the stress of their equivalent
+    eigenstrain), counted as a plastic body's.
+    """
+    return _plastic(case) or bool(case.body.inhomogeneity)
+
+
 def estimate_case_memory(case: Case) -> MemoryEstimate:
-    """Estimated peak resident memory of running ``case`` (:func:`estimate_memory`)."""
-    return estimate_memory(case_body_grid(case), _plastic(case), _anderson_depth(case))
+    """Estimated peak resident memory of running ``case`` (:func:`estimate_memory`).
+
+    A body with inhomogeneities is counted as a plastic one (the eigenstrain operator and
+    volume state), whatever its hardening.
+    """
+    return estimate_memory(case_body_grid(case), _eigenstrain_operator(case),
+                           _anderson_depth(case))
 
 
 def check_case_memory(case: Case, available: int | None = None) -> MemoryEstimate:
@@ -256,4 +270,5 @@ def check_case_memory(case: Case, available: int | None = None) -> MemoryEstimat
     GridTooLargeError
         When the estimate exceeds the available memory (default: available now).
     """
-    return check_memory(case_body_grid(case), _plastic(case), _anderson_depth(case), available)
+    return check_memory(case_body_grid(case), _eigenstrain_operator(case), _anderson_depth(case),
+                        available)
