@@ -219,14 +219,19 @@ def _deeper(case: Case, exc: BoxTooShallowError) -> Case:
 
 
 def _default_factory() -> Callable[[Case], StateSource]:
-    """Return the solver's simulation factory (it reads a measured surface, a stored state)."""
+    """Return the solver's simulation factory.
+
+    It reads a measured surface, a stored state, the cells files of inhomogeneities.
+    """
     from sacflow.config.solver_inputs import simulation_for
+    from sacflow.storage.inclusion_cells_file import read_inclusion_cells
     from sacflow.storage.initial_state_file import read_initial_state
     from sacflow.storage.surface_file import load_surface
 
     def factory(case: Case) -> StateSource:
         return simulation_for(case, surface=load_surface(case),
-                              initial=read_initial_state(case))
+                              initial=read_initial_state(case),
+                              cells=read_inclusion_cells(case))
 
     return factory
 

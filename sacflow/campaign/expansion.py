@@ -115,10 +115,12 @@ def _read_base(base: str | dict[str, Any], folder: Path, source: str) -> dict[st
 
 #: Swept keys naming files, resolved against the campaign file: (table, key in the table).
 _FILE_KEYS = (("surface", "path"), ("initial_state", "run"))
+#: A swept cells file of an inhomogeneity, also resolved against the campaign file.
+_CELLS_KEY = re.compile(r"^body\.inhomogeneity\.\d+\.cells$")
 
 
 def _absolute_surface_paths(block: Sweep, folder: Path) -> Sweep:
-    """Make swept measured-surface and source-run files relative to the campaign file."""
+    """Make swept measured-surface, source-run and cells files relative to the campaign file."""
     parameters = dict(block.parameters)
     for table, key in _FILE_KEYS:
         for swept in (f"{table}.{key}", table):
@@ -131,6 +133,13 @@ def _absolute_surface_paths(block: Sweep, folder: Path) -> Sweep:
                 resolve_surface_path(data, folder)
                 values.append(data[table] if whole else data[table][key])
             parameters[swept] = tuple(values)
+    for swept in [key for key in parameters if _CELLS_KEY.match(key)]:
+        values = []
+        for value in parameters[swept]:
+            data = {"body": {"inhomogeneity": [{"cells": value}]}}
+            resolve_surface_path(data, folder)
+            values.append(data["body"]["inhomogeneity"][0]["cells"])
+        parameters[swept] = tuple(values)
     return block.model_copy(update={"parameters": parameters})
 
 

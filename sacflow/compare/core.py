@@ -2,7 +2,8 @@
 
 Computation and metadata are separate layers: the stages compute bare arrays and hand
 them to :func:`build`, which attaches ``units`` and ``long_name`` from the one table
-:data:`RESULTS` (falling back on the run-file table :data:`sacflow.storage.run_variables.VARIABLES`
+:data:`RESULTS` (falling back on the run-file table
+:data:`sacflow.storage.run_variables.RUN_VARIABLES`
 for the quantities a result shares with a run, e.g. ``pressure``). Long names and units may hold
 ``{placeholders}`` filled from the ``context`` given to :func:`build` (a tensor component, the
 units of a compared variable).
@@ -32,7 +33,7 @@ from pydantic import ValidationError
 from sacflow.config.schema import Case
 from sacflow.errors import InputError
 from sacflow.storage.run_reader import RunFileError, open_run
-from sacflow.storage.run_variables import COORDINATES, VARIABLES
+from sacflow.storage.run_variables import COORDINATES, RUN_VARIABLES
 
 __all__ = [
     "RESULTS",
@@ -218,8 +219,8 @@ def metadata(name: str, context: Mapping[str, Any] | None = None) -> dict[str, s
     """``units`` and ``long_name`` of a result or run variable, placeholders filled."""
     if name in RESULTS:
         meta = RESULTS[name]
-    elif name in VARIABLES:
-        meta = Meta(VARIABLES[name].units, VARIABLES[name].long_name)
+    elif name in RUN_VARIABLES:
+        meta = Meta(RUN_VARIABLES[name].units, RUN_VARIABLES[name].long_name)
     elif name in COORDINATES:
         meta = Meta(COORDINATES[name].units, COORDINATES[name].long_name)
     else:

@@ -4,7 +4,8 @@ Body 1 is the elastic-plastic half-space (its material in :mod:`sacflow.config.m
 counter-body is rigid or elastic, a sphere or an ellipsoid. The surface of body 1 is smooth,
 dented or measured (a file, read by :mod:`sacflow.storage.surface_file`); a shear traction
 (``[friction]``) acts on the contact; a chained case starts from a stored run's state
-(``initial_state``, read by :mod:`sacflow.storage.initial_state_file`).
+(``initial_state``, read by :mod:`sacflow.storage.initial_state_file`). Body 1 may hold elastic
+inhomogeneities (``[[body.inhomogeneity]]``, :mod:`sacflow.config.inclusions`).
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ from sacflow.config.base import (
     field_error,
     unit_vector,
 )
+from sacflow.config.inclusions import Inhomogeneity
 from sacflow.config.materials import HardeningLaw, InitialHardening, InitialResidualStress
 
 __all__ = [
@@ -55,6 +57,12 @@ class Body(Model):
     )
     initial_hardening: InitialHardening | None = Field(
         None, description="equivalent plastic strain before any contact vs depth"
+    )
+    inhomogeneity: tuple[Inhomogeneity, ...] = Field(
+        (),
+        description="elastic inhomogeneities of the body ([[body.inhomogeneity]]): regions with "
+        "their own E and nu, solved by Eshelby's equivalent inclusion method; they stay elastic "
+        "whatever the body's hardening",
     )
 
     @model_validator(mode="after")

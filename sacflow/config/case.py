@@ -31,10 +31,12 @@ from sacflow.config.identity import (
     identity_of,
     read_file_fingerprints,
 )
+from sacflow.config.inclusion_checks import check_inhomogeneities
 from sacflow.config.load_path import Load, Segment
 from sacflow.config.materials import Elastic
 from sacflow.config.settings import (
     FRICTION_FIELDS,
+    INHOMOGENEITY_FIELDS,
     KINEMATIC_FIELDS,
     PLASTIC_FIELDS,
     Grid,
@@ -47,7 +49,7 @@ from sacflow.solver.state import SCALAR_FIELDS, SURFACE_FIELDS, VOLUME_FIELDS
 __all__ = ["Case", "case_json_schema"]
 
 #: Tables whose change changes the files a case names (and so its file fingerprints).
-FILE_TABLES = frozenset({"surface", "initial_state"})
+FILE_TABLES = frozenset({"surface", "initial_state", "body"})
 
 
 class Case(Model):
@@ -103,8 +105,9 @@ class Case(Model):
     def model_copy(self, *, update: Mapping[str, Any] | None = None, deep: bool = False) -> Self:
         """Return a copy (pydantic ``model_copy``); an updated copy gets its own ``case_id``.
 
-        The file fingerprints are kept unless ``update`` changes ``surface`` or
-        ``initial_state`` (then they are read again at the first use of the id).
+        The file fingerprints are kept unless ``update`` changes ``surface``,
+        ``initial_state`` or ``body`` (its inhomogeneities' cells files): they are then read
+        again at the first use of the id.
         """
         copied = super().model_copy(update=update, deep=deep)
         if update:
@@ -139,10 +142,16 @@ class Case(Model):
 
     # -- derived quantities ------------------------------------------------------------------
     def stored_fields(self) -> tuple[str, ...]:
-        """Return the variables the run file stores: ``output.fields`` or the default (Output)."""
+        """Return the variables the run file stores: ``output.fields`` or the default (Output).
+
+        The default adds the inhomogeneity fields (:data:`INHOMOGENEITY_FIELDS`) for a body
+        with inhomogeneities only.
+        """
         if self.output.fields is not None:
             return tuple(self.output.fields)
         every = SCALAR_FIELDS + SURFACE_FIELDS + VOLUME_FIELDS
+        if self.body.inhomogeneity:
+            every += INHOMOGENEITY_FIELDS
         if self.friction is None:
             every = tuple(name for name in every if name not in FRICTION_FIELDS)
         if getattr(self.body.hardening, "kinematic", None) is None:
@@ -209,6 +218,11 @@ class Case(Model):
     @model_validator(mode="after")
     def _check_grid(self) -> Case:
         check_grid(self)
+        return self
+
+    @model_validator(mode="after")
+    def _check_inhomogeneities(self) -> Case:
+        check_inhomogeneities(self)
         return self
 
 

@@ -17,7 +17,7 @@ from pydantic_core import PydanticCustomError
 
 from sacflow.config.base import MAX_CELLS, field_error
 from sacflow.config.load_path import Hold, Load, Roll, Unload
-from sacflow.config.settings import FRICTION_FIELDS, KINEMATIC_FIELDS
+from sacflow.config.settings import FRICTION_FIELDS, INHOMOGENEITY_FIELDS, KINEMATIC_FIELDS
 
 if TYPE_CHECKING:
     from sacflow.config.case import Case
@@ -73,7 +73,11 @@ def check_load_path(case: Case) -> None:
 
 
 def check_output_fields(case: Case) -> None:
-    """Check that ``output.fields`` asks for no friction or backstress field the case lacks."""
+    """Check that ``output.fields`` asks for no field the case cannot have.
+
+    A shear traction needs friction, the backstress kinematic hardening, the inclusion fields an
+    inhomogeneity.
+    """
     asked = set(case.output.fields or ()) & set(FRICTION_FIELDS)
     if case.friction is None and asked:
         raise field_error("output.fields", f"{', '.join(sorted(asked))} needs a [friction] "
@@ -82,6 +86,10 @@ def check_output_fields(case: Case) -> None:
     if getattr(case.body.hardening, "kinematic", None) is None and asked:
         raise field_error("output.fields", f"{', '.join(sorted(asked))} needs kinematic "
                           "hardening ([body.hardening.kinematic]); add it or remove the field")
+    asked = set(case.output.fields or ()) & set(INHOMOGENEITY_FIELDS)
+    if not case.body.inhomogeneity and asked:
+        raise field_error("output.fields", f"{', '.join(sorted(asked))} needs an elastic "
+                          "inhomogeneity ([[body.inhomogeneity]]); add one or remove the field")
 
 
 def check_initial_state(case: Case) -> None:

@@ -4,7 +4,8 @@ A stored run is named by the ``case_id`` of its case: the first 12 hex digits of
 the canonical JSON of the case's identity, its JSON form without what does not change the
 stored numbers (:data:`NOT_IN_IDENTITY`, options added later at their default) and with the
 files it names replaced by their contents' fingerprints (:class:`FileFingerprints`): a measured
-surface by the SHA-256 of its file, the source run of a chained case by that run's ``case_id``.
+surface and the cells file of an inhomogeneity by the SHA-256 of the file, the source run of a
+chained case by that run's ``case_id``.
 
 This layer reads no file. The fingerprints are read by the storage layer
 (:func:`sacflow.storage.fingerprints.file_fingerprints`) once per case: where a case enters
@@ -60,7 +61,10 @@ OPTIONAL_TABLES: tuple[str, ...] = ("friction", "body.hardening.kinematic")
 DEFAULTS_LEFT_OUT: dict[str, Any] = {"output.volume_precision": "float64",
                                      "output.every_step": [],
                                      "solver.residual_displacement_in_gap": True,
-                                     "solver.return_integration": "backward_euler"}
+                                     "solver.return_integration": "backward_euler",
+                                     "body.inhomogeneity": [],
+                                     "solver.inclusion_tolerance": 1e-8,
+                                     "solver.inclusion_max_iterations": 1000}
 #: Options that change no number of an elastic body, left out of its identity.
 PLASTIC_ONLY: tuple[str, ...] = ("solver.return_integration",)
 #: Load-path segment options added after runs were stored, left out of the identity when unset.
@@ -80,10 +84,14 @@ class FileFingerprints:
         not where the file lies (a moved file keeps the id, an edited one not).
     source_case_id : str or None
         ``case_id`` of the run a chained case starts from (``initial_state.run``).
+    cells_digests : tuple of (str or None)
+        One per inhomogeneity of the body, in order: the first 16 hex digits of the SHA-256 of
+        its cells file (``shape = "cells"``), None for the other shapes (empty: none).
     """
 
     surface_digest: str | None = None
     source_case_id: str | None = None
+    cells_digests: tuple[str | None, ...] = ()
 
 
 #: Reads the fingerprints of the files a case names (installed by the storage layer).
@@ -104,8 +112,12 @@ def install_file_fingerprint_reader(reader: FileFingerprintReader) -> None:
 
 
 def names_files(case: Case) -> bool:
-    """Tell whether ``case`` names files whose contents enter its id (surface, source run)."""
-    return case.surface.kind == "measured" or case.initial_state is not None
+    """Tell whether ``case`` names files whose contents enter its id.
+
+    Its measured surface, its source run, the cells file of an inhomogeneity.
+    """
+    return (case.surface.kind == "measured" or case.initial_state is not None
+            or any(item.cells is not None for item in case.body.inhomogeneity))
 
 
 def read_file_fingerprints(case: Case) -> FileFingerprints:
@@ -121,7 +133,8 @@ def read_file_fingerprints(case: Case) -> FileFingerprints:
         return FileFingerprints()
     if not _readers:
         raise RuntimeError(
-            f"case {case.name!r} names files (surface.path or initial_state.run) whose contents "
+            f"case {case.name!r} names files (surface.path, initial_state.run or "
+            "body.inhomogeneity.<i>.cells) whose contents "
             "enter its case_id, and no reader of them is installed: import sacflow.storage "
             "(sacflow.load_case and sacflow.run do)"
         )
@@ -155,9 +168,25 @@ def identity_of(data: dict[str, Any], fingerprints: FileFingerprints) -> dict[st
         optional tables when absent, :data:`DEFAULTS_LEFT_OUT` at their default (the return
         integration at the value that reproduces the runs stored before the option: a plastic
         case at the new default gets a new id, its numbers changed) and, for an elastic body,
-        :data:`PLASTIC_ONLY`; a measured
-        surface's path replaced by ``sha256:<digest>``, a source run by ``case_id:<id>``.
+        :data:`PLASTIC_ONLY`; a measured surface's path and an inhomogeneity's cells file
+        replaced by ``sha256:<digest>``, a source run by ``case_id:<id>``.
     """
+    _drop_what_changes_no_number(data)
+    if data["surface"]["kind"] == "measured" and fingerprints.surface_digest:
+        # the heights are what count: the same file moved keeps the id, an edited one not
+        data["surface"]["path"] = f"sha256:{fingerprints.surface_digest}"
+    if data.get("initial_state") is not None and fingerprints.source_case_id:
+        # the source's identity counts, not where its file lies
+        data["initial_state"]["run"] = f"case_id:{fingerprints.source_case_id}"
+    items = data.get("body", {}).get("inhomogeneity", ())
+    for item, digest in zip(items, fingerprints.cells_digests, strict=False):
+        if digest:  # the points count, not where the file lies
+            item["cells"] = f"sha256:{digest}"
+    return data
+
+
+def _drop_what_changes_no_number(data: dict[str, Any]) -> None:
+    """Remove from ``data`` the fields :func:`identity_of` leaves out (in place)."""
     for dotted in NOT_IN_IDENTITY:
         _drop(data, dotted, lambda value: True)
     for segment in data.get("load_path", ()):  # options added later, absent when unset
@@ -171,13 +200,6 @@ def identity_of(data: dict[str, Any], fingerprints: FileFingerprints) -> dict[st
     if data["body"]["hardening"]["law"] == "elastic":
         for dotted in PLASTIC_ONLY:
             _drop(data, dotted, lambda value: True)
-    if data["surface"]["kind"] == "measured" and fingerprints.surface_digest:
-        # the heights are what count: the same file moved keeps the id, an edited one not
-        data["surface"]["path"] = f"sha256:{fingerprints.surface_digest}"
-    if data.get("initial_state") is not None and fingerprints.source_case_id:
-        # the source's identity counts, not where its file lies
-        data["initial_state"]["run"] = f"case_id:{fingerprints.source_case_id}"
-    return data
 
 
 def case_id_of(identity: dict[str, Any]) -> str:

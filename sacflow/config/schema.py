@@ -6,6 +6,8 @@ live in the modules of :mod:`sacflow.config` by subject:
 * :mod:`~sacflow.config.base`: the frozen :class:`Model`, :func:`field_error`, unit types;
 * :mod:`~sacflow.config.materials`: hardening laws, kinematic hardening, initial profiles;
 * :mod:`~sacflow.config.bodies`: body 1, the counter-body, surfaces, friction, initial state;
+* :mod:`~sacflow.config.inclusions`: the elastic inhomogeneities of body 1 (their checks against
+  the grid in :mod:`~sacflow.config.inclusion_checks`);
 * :mod:`~sacflow.config.load_path`: load, unload, hold and roll segments;
 * :mod:`~sacflow.config.settings`: grid, solver options, output;
 * :mod:`~sacflow.config.case`: the :class:`Case` and its JSON schema; the case-level checks in
@@ -42,6 +44,7 @@ from sacflow.config.identity import (
     FileFingerprints,
     identity_differences,
 )
+from sacflow.config.inclusions import Inhomogeneity
 from sacflow.config.load_path import Hold, Load, Roll, Segment, Unload
 from sacflow.config.materials import (
     DepthProfile,
@@ -85,6 +88,7 @@ __all__ = [
     "Grid",
     "HardeningLaw",
     "Hold",
+    "Inhomogeneity",
     "InitialHardening",
     "InitialResidualStress",
     "InitialState",

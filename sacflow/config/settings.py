@@ -20,10 +20,17 @@ from sacflow.config.base import (
     PositiveInt,
     field_error,
 )
-from sacflow.solver.state import SCALAR_FIELDS, SURFACE_FIELDS, VOLUME_FIELDS
+from sacflow.solver.state import (
+    INCLUSION_FIELDS,
+    INCLUSION_SCALARS,
+    SCALAR_FIELDS,
+    SURFACE_FIELDS,
+    VOLUME_FIELDS,
+)
 
 __all__ = [
     "FRICTION_FIELDS",
+    "INHOMOGENEITY_FIELDS",
     "KINEMATIC_FIELDS",
     "PLASTIC_FIELDS",
     "Grid",
@@ -34,7 +41,8 @@ __all__ = [
 if TYPE_CHECKING:
     FieldName = str  # a Literal built at run time from the field tuples (pydantic checks it)
 else:
-    FieldName = Literal[SCALAR_FIELDS + SURFACE_FIELDS + VOLUME_FIELDS]
+    FieldName = Literal[SCALAR_FIELDS + SURFACE_FIELDS + VOLUME_FIELDS + INCLUSION_SCALARS
+                        + INCLUSION_FIELDS]
 if TYPE_CHECKING:
     VolumeFieldName = str
 else:
@@ -101,6 +109,14 @@ class SolverOptions(Model):
         "(step doubling); 'backward_euler', one fully implicit step (first order: the results "
         "of sacflow before this option)",
     )
+    inclusion_tolerance: PositiveFloat = Field(
+        1e-8,
+        description="relative residual of the Krylov solve of the inhomogeneities' equivalent "
+        "eigenstrain ([[body.inhomogeneity]])",
+    )
+    inclusion_max_iterations: PositiveInt = Field(
+        1000, description="iteration limit of the equivalent-eigenstrain solve"
+    )
 
 
 #: Fields that hold no information for an elastic body (zeros, an infinite yield stress): not
@@ -118,6 +134,10 @@ FRICTION_FIELDS: tuple[str, ...] = ("shear_traction",)
 #: Fields of a body with kinematic hardening: not stored, and refused in ``output.fields``,
 #: without it.
 KINEMATIC_FIELDS: tuple[str, ...] = ("backstress",)
+#: Fields of a body with elastic inhomogeneities (``[[body.inhomogeneity]]``): the equivalent
+#: eigenstrain, the phase of each cell, the Krylov iterations per step. Stored only for such a
+#: body (a homogeneous run's file is as before), and refused in ``output.fields`` without one.
+INHOMOGENEITY_FIELDS: tuple[str, ...] = INCLUSION_SCALARS + INCLUSION_FIELDS
 
 
 class Output(Model):
@@ -131,7 +151,8 @@ class Output(Model):
         None,
         description="variables to store (default: all, except for an elastic body the plastic "
         "ones, which would hold zeros: residual_displacement, plastic_strain, "
-        "equivalent_plastic_strain, residual_stress, yield_stress)",
+        "equivalent_plastic_strain, residual_stress, yield_stress; and inclusion_iterations, "
+        "equivalent_eigenstrain, phase for a body with inhomogeneities only)",
     )
     volume_every: PositiveInt = Field(
         1, description="store volume fields every k steps (and at the last step)"

@@ -4,9 +4,10 @@ The solver layer takes floats, arrays, tuples and mechanics objects, never the c
 this module is the one place that reads a :class:`~sacflow.config.schema.Case` for it. It builds
 the hardening law objects, the contact modulus, effective radii and Hertz estimate, the friction
 traction, the cell size and the box depth (given, or sized on the Hertz field:
-:func:`~sacflow.solver.layout.auto_depth`), the expanded load path, the initial profiles on the
-cuboid layers; :func:`simulation_for` makes the ready :class:`~sacflow.solver.simulation.
-Simulation` of a case, :func:`estimate_case_memory` the memory estimate of its grid.
+:func:`~sacflow.config.inclusion_checks.box_depth`), the expanded load path, the initial profiles
+on the cuboid layers, the elastic inhomogeneities of the body; :func:`simulation_for` makes the
+ready :class:`~sacflow.solver.simulation.Simulation` of a case, :func:`estimate_case_memory`
+the memory estimate of its grid.
 """
 
 from __future__ import annotations
@@ -14,7 +15,10 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
+import numpy as np
+
 from sacflow.config.hardening_laws import hardening_from_schema, kinematic_from_schema
+from sacflow.config.inclusion_checks import box_depth
 from sacflow.config.schema import Case, Elastic, Hold, Load, Roll, Unload
 from sacflow.errors import SacflowError
 from sacflow.mechanics.initial_state import (
@@ -27,13 +31,14 @@ from sacflow.solver.inputs import (
     ContactSpec,
     Dent,
     GridSpec,
+    Inhomogeneity,
     InitialConditions,
     Material,
     OutputPlan,
     SolverInputs,
     SolverSettings,
 )
-from sacflow.solver.layout import BodyGrid, StepPlan, auto_depth, layer_centres, plan_steps
+from sacflow.solver.layout import BodyGrid, StepPlan, layer_centres, plan_steps
 from sacflow.solver.memory_estimate import MemoryEstimate, check_memory, estimate_memory
 from sacflow.solver.state import MeasuredSurface
 
@@ -45,14 +50,21 @@ __all__ = [
     "case_steps",
     "check_case_memory",
     "estimate_case_memory",
+    "inhomogeneities",
     "load_path_segments",
     "simulation_for",
     "solver_inputs",
 ]
 
 
+#: The cell centres of each inhomogeneity of a case, in order: a (k, 3) array [m] for
+#: ``shape = "cells"``, None for the other shapes.
+CellPoints = Sequence[np.ndarray | None]
+
+
 def simulation_for(case: Case, surface: MeasuredSurface | None = None,
-                   initial: StoredState | None = None) -> Simulation:
+                   initial: StoredState | None = None,
+                   cells: CellPoints | None = None) -> Simulation:
     """Return the ready :class:`~sacflow.solver.simulation.Simulation` of ``case``.
 
     Parameters
@@ -65,33 +77,35 @@ def simulation_for(case: Case, surface: MeasuredSurface | None = None,
     initial : StoredState, optional
         The stored state a chained case starts from (``initial_state``): read it with
         :func:`sacflow.storage.initial_state_file.read_initial_state`.
+    cells : sequence, optional
+        The cell centres of the case's inhomogeneities of ``shape = "cells"`` (one entry per
+        inhomogeneity, None for the other shapes): read them with
+        :func:`sacflow.storage.inclusion_cells_file.read_inclusion_cells`.
     """
     from sacflow.solver.simulation import Simulation  # the solver's kernels load lazily
 
-    return Simulation(solver_inputs(case, surface, initial))
+    return Simulation(solver_inputs(case, surface, initial, cells))
 
 
 def solver_inputs(case: Case, surface: MeasuredSurface | None = None,
-                  initial: StoredState | None = None) -> SolverInputs:
+                  initial: StoredState | None = None,
+                  cells: CellPoints | None = None) -> SolverInputs:
     """Translate ``case`` into the solver's inputs (arguments as for :func:`simulation_for`).
 
     Raises
     ------
     SacflowError
-        When the case has a measured surface and no ``surface``, or an initial state and no
-        ``initial``.
+        When the case has a measured surface and no ``surface``, an initial state and no
+        ``initial``, or an inhomogeneity of cells and no ``cells``.
     """
     body, opts = case.body, case.solver
     law = hardening_from_schema(body.hardening)
     plastic = _plastic(case)
     material = Material(float(body.E), float(body.nu), law,
                         kinematic_from_schema(body.hardening) if plastic else None)
-    hertz = case.hertz()
     steps = tuple(case_steps(case))
     nz = case.grid.nz
-    depth = case.grid.depth or auto_depth(law if plastic else None, hertz.a, hertz.p0,
-                                          body.nu, opts.plastic_margin)
-    grid = GridSpec((case.grid.nx, case.grid.ny), case.cell_size(), nz, depth)
+    grid = GridSpec((case.grid.nx, case.grid.ny), case.cell_size(), nz, box_depth(case))
     x3 = layer_centres(nz, grid.layer_thickness)
     settings = SolverSettings(
         contact_tolerance=opts.contact_tolerance,
@@ -105,6 +119,8 @@ def solver_inputs(case: Case, surface: MeasuredSurface | None = None,
         fft_threads=opts.fft_threads,
         residual_displacement_in_gap=opts.residual_displacement_in_gap,
         return_integration=opts.return_integration,
+        inclusion_tolerance=opts.inclusion_tolerance,
+        inclusion_max_iterations=opts.inclusion_max_iterations,
     )
     output = OutputPlan(case.output.volume_every, tuple(case.output.every_step))
     conditions = InitialConditions(
@@ -113,7 +129,43 @@ def solver_inputs(case: Case, surface: MeasuredSurface | None = None,
         *_stored_state(case, initial),
     )
     return SolverInputs(material, grid, _contact(case, surface), settings, output, steps,
-                        conditions)
+                        conditions, inhomogeneities(case, cells))
+
+
+def inhomogeneities(case: Case, cells: CellPoints | None = None) -> tuple[Inhomogeneity, ...]:
+    """Return the elastic inhomogeneities of the body of ``case`` as the solver's.
+
+    A sphere gets its radius as its three semi-axes, a cuboid its half-sides; an inhomogeneity
+    of ``shape = "cells"`` takes its points from ``cells`` (its centre and
+    semi-axes: the middle and the half-extent of their span along x1, x2, x3).
+
+    Raises
+    ------
+    SacflowError
+        When an inhomogeneity of cells has no points in ``cells``.
+    """
+    found = []
+    for index, item in enumerate(case.body.inhomogeneity):
+        E, nu = float(item.E), float(item.nu)
+        if item.shape != "cells":
+            assert item.centre is not None  # guaranteed by validation
+            centre = (float(item.centre[0]), float(item.centre[1]), float(item.centre[2]))
+            found.append(Inhomogeneity(item.shape, centre, item.semi_axes_m(), E, nu))
+            continue
+        points = None if cells is None or index >= len(cells) else cells[index]
+        if points is None:
+            raise SacflowError(
+                f"body.inhomogeneity.{index}.cells: the cell centres are needed: build the "
+                "simulation with simulation_for(case, cells=sacflow.storage."
+                "inclusion_cells_file.read_inclusion_cells(case)), or use sacflow.run"
+            )
+        points = np.asarray(points, dtype=float).reshape(-1, 3)
+        low, high = points.min(axis=0), points.max(axis=0)
+        mid, half = 0.5 * (low + high), 0.5 * (high - low)
+        found.append(Inhomogeneity(
+            "cells", (float(mid[0]), float(mid[1]), float(mid[2])),
+            (float(half[0]), float(half[1]), float(half[2])), E, nu, points))
+    return tuple(found)
 
 
 def _contact(case: Case, surface: MeasuredSurface | None) -> ContactSpec:
@@ -192,9 +244,23 @@ def case_body_grid(case: Case) -> BodyGrid:
                             case_steps(case))
 
 
+def _eigenstrain_operator(case: Case) -> bool:
+    """Whether a run of ``case`` builds the eigenstrain operator.
+
+    A plastic body does, and so does one with inhomogeneities (the stress of their equivalent
+    eigenstrain), counted as a plastic body's.
+    """
+    return _plastic(case) or bool(case.body.inhomogeneity)
+
+
 def estimate_case_memory(case: Case) -> MemoryEstimate:
-    """Estimated peak resident memory of running ``case`` (:func:`estimate_memory`)."""
-    return estimate_memory(case_body_grid(case), _plastic(case), _anderson_depth(case))
+    """Estimated peak resident memory of running ``case`` (:func:`estimate_memory`).
+
+    A body with inhomogeneities is counted as a plastic one (the eigenstrain operator and
+    volume state), whatever its hardening.
+    """
+    return estimate_memory(case_body_grid(case), _eigenstrain_operator(case),
+                           _anderson_depth(case))
 
 
 def check_case_memory(case: Case, available: int | None = None) -> MemoryEstimate:
@@ -205,4 +271,5 @@ def check_case_memory(case: Case, available: int | None = None) -> MemoryEstimat
     GridTooLargeError
         When the estimate exceeds the available memory (default: available now).
     """
-    return check_memory(case_body_grid(case), _plastic(case), _anderson_depth(case), available)
+    return check_memory(case_body_grid(case), _eigenstrain_operator(case), _anderson_depth(case),
+                        available)

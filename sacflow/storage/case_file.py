@@ -116,7 +116,10 @@ def case_from_dict(data: Mapping[str, Any], source: str = "<dict>") -> Case:
 
 
 def check_case_files(case: Case, source: str) -> None:
-    """Check that the files ``case`` names can be read: its measured surface, its source run.
+    """Check that the files ``case`` names can be read (surface, source run, cells files).
+
+    The measured surface, the run a chained case starts from, the cells files of its
+    inhomogeneities (their points in the cuboid box).
 
     Raises
     ------
@@ -125,6 +128,10 @@ def check_case_files(case: Case, source: str) -> None:
     """
     check_surface_file(case, source)
     check_initial_state_file(case, source)
+    if any(item.cells is not None for item in case.body.inhomogeneity):
+        from sacflow.storage.inclusion_cells_file import check_inclusion_cells
+
+        check_inclusion_cells(case, source)
 
 
 # --------------------------------------------------------------------------- file helpers
@@ -137,14 +144,17 @@ def _syntax_message(path: Path, text: str, kind: str, reason: str, line: int | N
 
 
 def resolve_surface_path(data: dict[str, Any], folder: Path) -> None:
-    """Make a relative ``surface.path`` or ``initial_state.run`` absolute against ``folder``.
+    """Make the relative file paths of a case absolute against ``folder``, in place.
 
-    In place.
+    ``surface.path``, ``initial_state.run`` and each ``body.inhomogeneity.<i>.cells``.
 
     A path that cannot be resolved is left as written: :func:`check_surface_file` reports it.
     """
-    for table, key in (("surface", "path"), ("initial_state", "run")):
-        entry = data.get(table)
+    body = data.get("body")
+    items = body.get("inhomogeneity") if isinstance(body, dict) else None
+    entries = [(data.get("surface"), "path"), (data.get("initial_state"), "run")]
+    entries += [(item, "cells") for item in (items if isinstance(items, list) else ())]
+    for entry, key in entries:
         if isinstance(entry, dict) and isinstance(entry.get(key), str):
             try:
                 candidate = Path(entry[key]).expanduser()

@@ -1,7 +1,8 @@
 """Fingerprints of the files a case names, the part of its ``case_id`` that storage reads.
 
 A case's id covers the contents of the files it names, not their paths
-(:mod:`sacflow.config.identity`): a measured surface by the SHA-256 of its file, the source run
+(:mod:`sacflow.config.identity`): a measured surface and the cells file of an inhomogeneity by
+the SHA-256 of the file, the source run
 of a chained case by the ``case_id`` that run stores. The configuration layer reads no file;
 this module reads them, once per case: :func:`identified` where a case enters (the case file
 readers and campaign expansion), and :func:`file_fingerprints`, installed as the configuration
@@ -52,12 +53,18 @@ def stored_case_id(path: Path) -> str | None:
 
 
 def file_fingerprints(case: Case) -> FileFingerprints:
-    """Read the fingerprints of the files ``case`` names (its measured surface, source run)."""
+    """Read the fingerprints of the files ``case`` names.
+
+    Its measured surface, its source run, the cells files of its inhomogeneities.
+    """
     surface = case.surface
+    items = case.body.inhomogeneity
     return FileFingerprints(
         surface_digest=file_digest(surface.path) if surface.kind == "measured" else None,
         source_case_id=None if case.initial_state is None else stored_case_id(
             case.initial_state.run),
+        cells_digests=tuple(None if item.cells is None else file_digest(item.cells)
+                            for item in items) if any(i.cells for i in items) else (),
     )
 
 

@@ -1,8 +1,9 @@
 """netCDF layout of a run file: an empty file laid out as the variable table says, one step.
 
-:func:`create_run_dataset` turns :data:`~sacflow.storage.run_variables.VARIABLES` into a
-netCDF4 file (dimensions, coordinate variables, types, fill values, zlib level, one chunk per
-step of a field, CF attributes); :func:`write_step` fills one step. The per-step parts, the
+:func:`create_run_dataset` turns the variable table
+(:data:`~sacflow.storage.run_variables.RUN_VARIABLES`) into a netCDF4 file (dimensions,
+coordinate variables, types, fill values, zlib level, one chunk per step of a field, CF
+attributes); :func:`write_step` fills one step. The per-step parts, the
 consolidated file and the temporary file an interrupted run is read through are all made here,
 so they have one layout. Files are written inside :func:`write_through` (no HDF5 chunk cache).
 """
@@ -17,8 +18,15 @@ from typing import Any, Literal, cast
 import netCDF4
 import numpy as np
 
-from sacflow.solver.state import COMPONENTS, TRACTION_COMPONENTS, VOLUME_FIELDS, GridCoords
-from sacflow.storage.run_variables import COORDINATES, VARIABLES, dimension_sizes
+from sacflow.solver.state import COMPONENTS, TRACTION_COMPONENTS, GridCoords
+from sacflow.storage.run_variables import (
+    COORDINATES,
+    PHASE_FILL,
+    RUN_VARIABLES,
+    TENSOR,
+    VOLUME,
+    dimension_sizes,
+)
 
 __all__ = ["WRITE_CHUNK_CACHE", "ZlibLevel", "create_run_dataset", "write_step", "write_through"]
 
@@ -70,7 +78,7 @@ def create_run_dataset(
     compression: int,
     volume_dtype: str = "f8",
 ) -> netCDF4.Dataset:
-    """Create an empty run file laid out as in :data:`VARIABLES` (NaN where never written).
+    """Create an empty run file laid out as in :data:`RUN_VARIABLES` (NaN where never written).
 
     Parameters
     ----------
@@ -85,7 +93,9 @@ def create_run_dataset(
     compression : int
         zlib level 0..9 (0: none).
     volume_dtype : str
-        "f8" or "f4": the type of the volume fields (``output.volume_precision``).
+        "f8" or "f4": the type of the floating-point volume fields
+        (``output.volume_precision``); the integer ``phase`` keeps its type, filled with
+        :data:`~sacflow.storage.run_variables.PHASE_FILL` where not written.
 
     Returns
     -------
@@ -96,7 +106,7 @@ def create_run_dataset(
     nc.set_auto_mask(False)
     nc.setncatts(dict(attrs))
     sizes = dimension_sizes(coords)
-    used = {dim for name in names for dim in VARIABLES[name].dims} | {"x1", "x2", "x3",
+    used = {dim for name in names for dim in RUN_VARIABLES[name].dims} | {"x1", "x2", "x3",
                                                                       "component"}
     nc.createDimension("step", None)
     for dim, size in sizes.items():
@@ -104,17 +114,23 @@ def create_run_dataset(
             nc.createDimension(dim, size)
     _add_coordinates(nc, coords, used)
     for name in names:
-        spec = VARIABLES[name]
+        spec = RUN_VARIABLES[name]
         dtype = "i1" if spec.dtype == "bool" else spec.dtype
-        if name in VOLUME_FIELDS:
+        volume = spec.dims in (VOLUME, TENSOR)
+        if volume and spec.dtype == "f8":
             dtype = volume_dtype
+        fill = None
+        if dtype in ("f8", "f4"):
+            fill = np.array(np.nan, dtype)
+        elif volume:  # an integer volume field (phase): a fill read back as missing
+            fill = np.array(PHASE_FILL, dtype)
         var = nc.createVariable(
             name,
             dtype,
             spec.dims,
             zlib=compression > 0,
             complevel=_zlib_level(compression),
-            fill_value=np.array(np.nan, dtype) if dtype in ("f8", "f4") else None,
+            fill_value=fill,
             chunksizes=(1, *(sizes[d] for d in spec.dims[1:])) if len(spec.dims) > 1 else None,
         )
         var.setncatts({"units": spec.units, "long_name": spec.long_name})

@@ -30,7 +30,7 @@ import numpy as np
 
 from sacflow.solver.state import GridCoords
 from sacflow.storage.run_layout import create_run_dataset, write_step, write_through
-from sacflow.storage.run_variables import VARIABLES
+from sacflow.storage.run_variables import RUN_VARIABLES
 
 __all__ = [
     "UNIFORM_ATTR",
@@ -213,4 +213,4 @@ def part_layout(part: Path) -> tuple[GridCoords, list[str]]:
     """Grid and stored variables (in table order) of a part."""
     with netCDF4.Dataset(part) as nc:
         coords = GridCoords(*(np.array(nc[x][:], dtype=float) for x in ("x1", "x2", "x3")))
-        return coords, [name for name in VARIABLES if name in nc.variables]
+        return coords, [name for name in RUN_VARIABLES if name in nc.variables]

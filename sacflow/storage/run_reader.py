@@ -31,7 +31,7 @@ from sacflow.storage.run_parts import (
     write_consolidated,
 )
 from sacflow.storage.run_restart import has_restart, read_restart
-from sacflow.storage.run_variables import SCALAR, VARIABLES
+from sacflow.storage.run_variables import RUN_VARIABLES, SCALAR
 
 if TYPE_CHECKING:  # xarray is imported where runs are read: writers (campaign workers) skip it
     import xarray as xr
@@ -238,7 +238,7 @@ def run_info(path: str | Path) -> RunInfo:
             with netCDF4.Dataset(path) as nc:
                 attrs = {k: nc.getncattr(k) for k in nc.ncattrs()}
                 steps = len(nc.dimensions["step"])
-                variables = tuple(name for name in VARIABLES if name in nc.variables)
+                variables = tuple(name for name in RUN_VARIABLES if name in nc.variables)
         except KeyError as exc:  # a netCDF file without a step dimension
             return RunInfo(path, problem=f"no {exc} dimension", unreadable=True)
         except (OSError, RuntimeError) as exc:
@@ -341,7 +341,7 @@ def read_scalars(path: str | Path) -> dict[str, np.ndarray]:
     for file in files:  # netCDF4 directly: a campaign worker need not import xarray for this
         with netCDF4.Dataset(file) as nc:
             nc.set_auto_mask(False)  # unwritten floats are NaN (their fill value) as they are
-            for name, var in VARIABLES.items():
+            for name, var in RUN_VARIABLES.items():
                 if var.dims == SCALAR and name in nc.variables:
                     values = np.asarray(nc[name][:])
                     columns.setdefault(name, []).append(

@@ -8,6 +8,12 @@ fields).
 
 A run file has the dimensions ``step`` (unlimited), ``x1``, ``x2``, ``x3``, ``component``
 (``11 22 33 12 13 23``) and, when it stores the shear traction, ``direction`` (``1 2``).
+
+:data:`VARIABLES` are those of every run; :data:`INHOMOGENEITY_VARIABLES` those of a body with
+elastic inhomogeneities only (the equivalent eigenstrain, the phase of each cell, the Krylov
+iterations per step), not in the default selection (:func:`selected_fields`), so the file of a
+homogeneous run is as it was before they existed; :data:`RUN_VARIABLES` holds both, the table
+the writer and the readers look a name up in.
 """
 
 from __future__ import annotations
@@ -19,6 +25,9 @@ from sacflow.solver.state import COMPONENTS, TRACTION_COMPONENTS, GridCoords
 
 __all__ = [
     "COORDINATES",
+    "INHOMOGENEITY_VARIABLES",
+    "PHASE_FILL",
+    "RUN_VARIABLES",
     "SCALAR",
     "SURFACE",
     "SURFACE_VECTOR",
@@ -102,6 +111,19 @@ VARIABLES: dict[str, Variable] = {
     "von_mises": Variable(VOLUME, "Pa", "von Mises equivalent stress"),
     "yield_stress": Variable(VOLUME, "Pa", "current yield stress"),
 }
+#: Variables of a body with elastic inhomogeneities only (``[[body.inhomogeneity]]``).
+INHOMOGENEITY_VARIABLES: dict[str, Variable] = {
+    "inclusion_iterations": Variable(
+        SCALAR, "1", "Krylov iterations of the equivalent-eigenstrain solves of the step", "i4"),
+    "equivalent_eigenstrain": Variable(
+        TENSOR, "1", "equivalent eigenstrain of Eshelby's method in the inhomogeneities"),
+    "phase": Variable(
+        VOLUME, "1", "phase of the cell: 0 the matrix, k the k-th inhomogeneity (from 1)", "i1"),
+}
+#: Every variable a run file may hold, in the order files store them: the lookup table.
+RUN_VARIABLES: dict[str, Variable] = {**VARIABLES, **INHOMOGENEITY_VARIABLES}
+#: Fill value of ``phase`` on steps where the volume fields are not stored (read back as NaN).
+PHASE_FILL = -1
 #: Coordinate variables: dims, units, long name, type.
 COORDINATES: dict[str, Variable] = {
     "step": Variable(("step",), "1", "load increment index", "i4"),
@@ -115,7 +137,10 @@ COORDINATES: dict[str, Variable] = {
 
 
 def selected_fields(fields: Iterable[str] | None) -> list[str]:
-    """Return the stored variables asked for, in table order (all of them for None).
+    """Return the stored variables asked for, in table order.
+
+    None selects :data:`VARIABLES` (a homogeneous body's); names may be any of
+    :data:`RUN_VARIABLES`.
 
     Raises
     ------
@@ -125,10 +150,10 @@ def selected_fields(fields: Iterable[str] | None) -> list[str]:
     if fields is None:
         return list(VARIABLES)
     fields = set(fields)
-    unknown = fields - set(VARIABLES)
+    unknown = fields - set(RUN_VARIABLES)
     if unknown:
-        raise ValueError(f"unknown output fields {sorted(unknown)}; known: {list(VARIABLES)}")
-    return [name for name in VARIABLES if name in fields]
+        raise ValueError(f"unknown output fields {sorted(unknown)}; known: {list(RUN_VARIABLES)}")
+    return [name for name in RUN_VARIABLES if name in fields]
 
 
 def dimension_sizes(coords: GridCoords) -> dict[str, int]:

@@ -2,7 +2,7 @@
 
 One netCDF4 file per case, ``<out>/<case name>.nc``, laid out by
 :mod:`sacflow.storage.run_layout` from the variable table
-(:data:`~sacflow.storage.run_variables.VARIABLES`); numerical code hands over bare arrays in a
+(:data:`~sacflow.storage.run_variables.RUN_VARIABLES`); numerical code hands over bare arrays in a
 :class:`~sacflow.solver.state.State` and this module checks them against the table and the grid.
 
 Crash safety. :class:`RunWriter` writes each step as its own complete part file, with the
@@ -40,7 +40,7 @@ import numpy as np
 
 from sacflow.config.schema import Case, identity_differences
 from sacflow.errors import SacflowError
-from sacflow.solver.state import GridCoords, State
+from sacflow.solver.state import INCLUSION_SCALARS, GridCoords, State
 from sacflow.storage.run_layout import create_run_dataset, write_step, write_through
 from sacflow.storage.run_lock import RunBusyError, RunLock
 from sacflow.storage.run_parts import (
@@ -56,10 +56,10 @@ from sacflow.storage.run_parts import (
 from sacflow.storage.run_reader import RunInfo, run_info
 from sacflow.storage.run_restart import write_restart
 from sacflow.storage.run_variables import (
+    RUN_VARIABLES,
     SURFACE,
     SURFACE_VECTOR,
     TENSOR,
-    VARIABLES,
     VOLUME,
     dimension_sizes,
     selected_fields,
@@ -88,7 +88,8 @@ class RunWriter:
     coords : GridCoords
         Body-fixed grid of the run.
     fields : iterable of str, optional
-        Variables to store (default: all of :data:`VARIABLES`).
+        Variables to store (default: those of every run,
+        :data:`~sacflow.storage.run_variables.VARIABLES`).
     compression : int
         zlib level 0..9 (0: none) of the consolidated file; the per-step parts, temporary, are
         not compressed.
@@ -311,14 +312,15 @@ def _state_values(state: State, names: list[str], coords: GridCoords) -> dict[st
     """Values of ``state`` to store, checked against the table and the grid."""
     sizes = dimension_sizes(coords)
     values: dict[str, Any] = {k: v for k, v in state.scalars().items() if k in names}
+    values.update({k: getattr(state, k) for k in INCLUSION_SCALARS if k in names})
     for group, arrays, dims in (
         ("surface", state.surface, (SURFACE, SURFACE_VECTOR)),
         ("volume", state.volume, (VOLUME, TENSOR)),
     ):
         for name, array in arrays.items():
-            if name not in VARIABLES or VARIABLES[name].dims not in dims:
+            if name not in RUN_VARIABLES or RUN_VARIABLES[name].dims not in dims:
                 raise ValueError(f"State.{group}[{name!r}] is not a {group} field")
-            shape = tuple(sizes[d] for d in VARIABLES[name].dims[1:])
+            shape = tuple(sizes[d] for d in RUN_VARIABLES[name].dims[1:])
             if np.shape(array) != shape:
                 raise ValueError(
                     f"State.{group}[{name!r}] has shape {np.shape(array)}, not {shape}"
