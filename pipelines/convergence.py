@@ -56,6 +56,7 @@ from sacflow.studies.convergence import (
     base_case,
     case_overrides,
     measure,
+    sequences_for,
     shipped_discretisation,
     source_fingerprint,
 )
@@ -143,7 +144,8 @@ def study(args: argparse.Namespace) -> int:
         overrides = [*(quick_overrides(study_case) if args.quick else ()), *args.overrides]
         base = shipped_discretisation(base_case(study_case, overrides))
         runner = LevelRunner(study_case, overrides, args.cache, fingerprint)
-        plan = {seq: SEQUENCES[seq].levels(base, args.levels) for seq in args.sequences}
+        sequences = sequences_for(overrides)
+        plan = {seq: sequences[seq].levels(base, args.levels) for seq in args.sequences}
         if args.plan:
             print_plan(runner, base, plan)
             continue
@@ -151,7 +153,7 @@ def study(args: argparse.Namespace) -> int:
         for seq_name, levels in plan.items():
             records = [runner.record(level) for level in levels]
             results.append(SequenceResult(
-                name, SEQUENCES[seq_name], levels,
+                name, sequences[seq_name], levels,
                 [None if r is None else r["quantities"] for r in records],
                 None if shipped is None else shipped["quantities"],
                 [None if r is None else r["converged"] for r in records],

@@ -213,12 +213,28 @@ SEQUENCES: dict[str, Refinement] = {
                    "layers nz over the same box depth, surface cells and increments fixed"),
         Refinement("depth", 1.5, {"depth": 0}, None,
                    "box depth and layers together (same layer thickness); h = 1 / depth"),
-        Refinement("increments", 2.0, {"increments": 0}, 1.0,
+        Refinement("increments", 2.0, {"increments": 0}, 2.0,
                    "load and unload increments together, grid fixed"),
-        Refinement("together", 2.0, {"nx": -1, "nz": -1, "increments": 0}, 1.0,
+        Refinement("together", 2.0, {"nx": -1, "nz": -1, "increments": 0}, 2.0,
                    "surface cells, layers and increments together"),
     )
 }
+#: Sequences whose formal order is that of the return's integration over an increment.
+INCREMENT_SEQUENCES = ("increments", "together")
+
+
+def sequences_for(overrides: Sequence[str]) -> dict[str, Refinement]:
+    """Return the sequences with the formal orders of the solver the ``overrides`` choose.
+
+    The step-doubled return (the default ``solver.return_integration``) is second order in the
+    increment, one backward-Euler step first order.
+    """
+    one_step = any(o.replace(" ", "") == "solver.return_integration=backward_euler"
+                   for o in overrides)
+    if not one_step:
+        return dict(SEQUENCES)
+    return {name: replace(seq, formal_order=1.0) if name in INCREMENT_SEQUENCES else seq
+            for name, seq in SEQUENCES.items()}
 
 #: Unit of the quantities of :func:`measure` (SI) by name prefix; names ending in ``_depth``
 #: are depths [m].
