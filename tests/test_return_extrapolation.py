@@ -16,6 +16,7 @@ import pytest
 
 from sacflow.mechanics.hardening import KinematicLaw, LinearHardening
 from sacflow.mechanics.return_extrapolation import extrapolated_return
+from sacflow.mechanics.return_mapping import return_map
 
 MU = 80e9
 SIGMA0 = 1.0e9
@@ -87,7 +88,8 @@ def errors(size: float) -> tuple[float, float]:
     s0, p0, de = start_and_path(60.0, size)
     exact, _ = reference(s0, p0, de)
     trial = s0 + 2 * MU * de
-    extrapolated, one_step = extrapolated_return(s0[None], trial[None], np.array([p0]), LAW, MU)
+    one_step = return_map(trial[None], np.array([p0]), LAW, MU)
+    extrapolated = extrapolated_return(s0[None], trial[None], np.array([p0]), LAW, MU)
     scale = np.abs(exact).max()
     return (float(np.abs(one_step.plastic_strain_increment[0] - exact).max() / scale),
             float(np.abs(extrapolated.plastic_strain_increment[0] - exact).max() / scale))
@@ -109,7 +111,8 @@ def test_step_doubling_is_second_order_where_backward_euler_is_first():
 def test_proportional_loading_is_exact_either_way():
     s0, p0, de = start_and_path(0.0, 2.0)
     trial = s0 + 2 * MU * de
-    extrapolated, one_step = extrapolated_return(s0[None], trial[None], np.array([p0]), LAW, MU)
+    one_step = return_map(trial[None], np.array([p0]), LAW, MU)
+    extrapolated = extrapolated_return(s0[None], trial[None], np.array([p0]), LAW, MU)
     exact, dp = reference(s0, p0, de)
     np.testing.assert_allclose(one_step.plastic_strain_increment[0], exact,
                                rtol=0, atol=1e-9 * np.abs(exact).max())
@@ -127,7 +130,9 @@ def test_elastic_points_are_left_alone_and_plastic_strain_never_shrinks():
     start_q = np.sqrt(1.5 * np.sum(WEIGHTS * np.array([deviatoric(r) for r in start]) ** 2,
                                    axis=1))
     keep = start_q < SIGMA0  # admissible starts only
-    extrapolated, one_step = extrapolated_return(start[keep], trial[keep], p0[keep], LAW, MU)
+    one_step = return_map(trial[keep], p0[keep], LAW, MU)
+    extrapolated = extrapolated_return(start[keep], trial[keep], p0[keep], LAW, MU,
+                                       full=return_map(trial[keep], p0[keep], LAW, MU))
     elastic = ~one_step.plastic
     assert elastic.any() and one_step.plastic.any()
     assert not extrapolated.plastic_strain_increment[elastic].any()
@@ -142,7 +147,9 @@ def test_kinematic_hardening_proportional_path_matches_one_step(recall):
     law = LinearHardening(SIGMA0, 0.0)
     s0 = s0 / LAW.yield_stress(p0) * SIGMA0  # on the surface of this law, no backstress yet
     trial = s0 + 2 * MU * de
-    extrapolated, one_step = extrapolated_return(
+    one_step = return_map(trial[None], np.array([p0]), law, MU, kinematic=kinematic,
+                          backstress=np.zeros((1, 6)))
+    extrapolated = extrapolated_return(
         s0[None], trial[None], np.array([p0]), law, MU, kinematic=kinematic,
         backstress=np.zeros((1, 6)))
     assert one_step.plastic.all()
@@ -152,3 +159,22 @@ def test_kinematic_hardening_proportional_path_matches_one_step(recall):
     assert extrapolated.backstress is not None and one_step.backstress is not None
     np.testing.assert_allclose(extrapolated.backstress, one_step.backstress, rtol=0,
                                atol=1e-9 * np.abs(one_step.backstress).max())
+
+
+def test_layer_depths_are_gathered_as_a_broadcast_would():
+    """A depth per layer (the solver's) gives the same return as the depths broadcast."""
+    from sacflow.mechanics.hardening import DepthScaledHardening
+
+    rng = np.random.default_rng(5)
+    shape = (4, 3, 5)
+    layers = np.linspace(1e-6, 5e-6, shape[-1])
+    law = DepthScaledHardening(LAW, np.array([0.0, 1e-5]), np.array([1.0, 2.0]))
+    start = rng.normal(scale=0.2 * SIGMA0, size=shape + (6,))
+    trial = start + rng.normal(scale=1.5 * SIGMA0, size=shape + (6,))
+    p0 = np.zeros(shape)
+    by_layer = extrapolated_return(start, trial, p0, law, MU, layers)
+    broadcast = extrapolated_return(start, trial, p0, law, MU,
+                                    np.broadcast_to(layers, shape).copy())
+    assert by_layer.plastic.any()
+    np.testing.assert_array_equal(by_layer.plastic_strain_increment,
+                                  broadcast.plastic_strain_increment)

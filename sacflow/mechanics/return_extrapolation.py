@@ -51,7 +51,7 @@ def extrapolated_return(start_stress: FloatArray, trial_stress: FloatArray,
                         depth: FloatArray | None = None, *,
                         kinematic: KinematicLaw | None = None,
                         backstress: FloatArray | None = None,
-                        full: ReturnResult | None = None) -> tuple[ReturnResult, ReturnResult]:
+                        full: ReturnResult | None = None) -> ReturnResult:
     """Return over the increment from ``start_stress`` to ``trial_stress``, step-doubled.
 
     Parameters
@@ -63,18 +63,19 @@ def extrapolated_return(start_stress: FloatArray, trial_stress: FloatArray,
     equivalent_plastic_strain : ndarray, shape (...)
         p_n before the increment.
     law, mu, depth, kinematic, backstress
-        As :func:`~sacflow.mechanics.return_mapping.return_map` (``backstress`` X_n).
+        As :func:`~sacflow.mechanics.return_mapping.return_map` (``backstress`` X_n); a
+        ``depth`` of one value per last-axis index (the layers) is gathered by that index.
     full : ReturnResult, optional
         The one-step return of ``trial_stress`` if already made (it is recomputed otherwise).
+        Its increment arrays are overwritten (the extrapolated ones take their place: no
+        box-size copy).
 
     Returns
     -------
-    extrapolated : ReturnResult
-        Increments ``2 H − F`` (plastic strain, equivalent plastic strain ≥ 0, backstress with
-        kinematic hardening); ``stress`` is None; ``plastic`` the one-step return's points.
-    full : ReturnResult
-        The one-step backward-Euler return (its algorithmic tangent approximates the
-        extrapolated map's).
+    ReturnResult
+        Increments ``2 H − F`` then drift-corrected (plastic strain, equivalent plastic strain
+        ≥ 0, backstress with kinematic hardening); ``stress`` is None; ``plastic`` the one-step
+        return's points (a point elastic over the full step is elastic over both halves).
     """
     with_backstress = kinematic is not None
     if full is None:
@@ -82,49 +83,59 @@ def extrapolated_return(start_stress: FloatArray, trial_stress: FloatArray,
                           kinematic=kinematic, backstress=backstress,
                           with_stress=with_backstress)
     plastic = full.plastic
-    if not plastic.any():
-        return full, full
+    idx = np.flatnonzero(plastic)
+    if idx.size == 0:
+        return full
     lead = plastic.shape
-    d_pl = None if depth is None else np.broadcast_to(depth, lead)[plastic]
-    p_pl = np.broadcast_to(equivalent_plastic_strain, lead)[plastic]
-    x_pl = None if backstress is None else np.broadcast_to(backstress, lead + (6,))[plastic]
-    start = start_stress[plastic]
-    half = 0.5 * (trial_stress[plastic] - start)
+    d_pl = _gathered_depth(depth, idx, lead)
+    p_pl = np.broadcast_to(equivalent_plastic_strain, lead).reshape(-1)[idx]
+    x_pl = None if backstress is None else backstress.reshape(-1, 6)[idx]
+    start = start_stress.reshape(-1, 6)[idx]
+    trial = trial_stress.reshape(-1, 6)[idx]
+    half = trial - start
+    half *= 0.5
     first = return_map(start + half, p_pl, law, mu, d_pl, kinematic=kinematic,
                        backstress=x_pl, with_stress=True)
     assert first.stress is not None
-    p_mid = p_pl + first.equivalent_plastic_strain_increment
-    x_mid = first.backstress if with_backstress else None
-    second = return_map(first.stress + half, p_mid, law, mu, d_pl, kinematic=kinematic,
-                        backstress=x_mid, with_stress=with_backstress)
+    second = return_map(first.stress + half, p_pl + first.equivalent_plastic_strain_increment,
+                        law, mu, d_pl, kinematic=kinematic, backstress=first.backstress,
+                        with_stress=False)
     w_half, w_full = RICHARDSON_WEIGHTS
-    plastic_strain = full.plastic_strain_increment.copy()
-    plastic_strain[plastic] = (
-        w_half * (first.plastic_strain_increment + second.plastic_strain_increment)
-        + w_full * full.plastic_strain_increment[plastic])
-    equivalent = full.equivalent_plastic_strain_increment.copy()
-    equivalent[plastic] = np.maximum(
-        w_half * (first.equivalent_plastic_strain_increment
-                  + second.equivalent_plastic_strain_increment)
-        + w_full * full.equivalent_plastic_strain_increment[plastic], 0.0)
+    strain_all = full.plastic_strain_increment.reshape(-1, 6)
+    equivalent_all = full.equivalent_plastic_strain_increment.reshape(-1)
+    strain = (w_half * (first.plastic_strain_increment + second.plastic_strain_increment)
+              + w_full * strain_all[idx])
+    equivalent = np.maximum(w_half * (first.equivalent_plastic_strain_increment
+                                      + second.equivalent_plastic_strain_increment)
+                            + w_full * equivalent_all[idx], 0.0)
     x_end = None
     if with_backstress:
         assert full.backstress is not None and second.backstress is not None
-        x_end = w_half * second.backstress + w_full * full.backstress[plastic]
+        x_end = w_half * second.backstress + w_full * full.backstress.reshape(-1, 6)[idx]
     # Drift correction: the extrapolated state may lie outside the yield surface by the
     # extrapolation's error; one return from it (p and X extrapolated) puts it back on.
-    end = trial_stress[plastic] - 2.0 * mu * plastic_strain[plastic]
-    correction = return_map(end, p_pl + equivalent[plastic], law, mu, d_pl,
-                            kinematic=kinematic, backstress=x_end, with_stress=False)
-    plastic_strain[plastic] += correction.plastic_strain_increment
-    equivalent[plastic] += correction.equivalent_plastic_strain_increment
-    new_backstress = None
+    trial -= 2.0 * mu * strain
+    correction = return_map(trial, p_pl + equivalent, law, mu, d_pl, kinematic=kinematic,
+                            backstress=x_end, with_stress=False)
+    strain_all[idx] = strain + correction.plastic_strain_increment
+    equivalent_all[idx] = equivalent + correction.equivalent_plastic_strain_increment
     if with_backstress:
         assert full.backstress is not None and correction.backstress is not None
-        new_backstress = full.backstress.copy()
-        new_backstress[plastic] = correction.backstress
+        full.backstress.reshape(-1, 6)[idx] = correction.backstress
     iterations = max(full.iterations, first.iterations, second.iterations,
                      correction.iterations)
-    extrapolated = ReturnResult(None, plastic_strain, equivalent, plastic, iterations,
-                                new_backstress)
-    return extrapolated, full
+    return ReturnResult(None, full.plastic_strain_increment,
+                        full.equivalent_plastic_strain_increment, plastic, iterations,
+                        full.backstress)
+
+
+def _gathered_depth(depth: FloatArray | None, idx: NDArray[np.intp],
+                    lead: tuple[int, ...]) -> FloatArray | None:
+    """Return the depths of the flat points ``idx`` of an array of shape ``lead``."""
+    if depth is None:
+        return None
+    depth = np.asarray(depth, dtype=float)
+    if depth.ndim == 1 and depth.size == lead[-1]:  # one per layer: no box-size broadcast
+        gathered: FloatArray = depth[idx % lead[-1]]
+        return gathered
+    return np.broadcast_to(depth, lead).reshape(-1)[idx]

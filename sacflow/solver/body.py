@@ -56,13 +56,17 @@ class ContactHistory:
     solve; None when unloaded), ``first_contact_offset`` the initial-gap offset of the first
     contact [m] (the origin of the approach; None before it), and ``converged`` the contact
     pressure of the last converged increment with the body-grid slices of its window (None
-    when that increment was unloaded): the load of the stress the next increment starts from.
+    when that increment was unloaded): the load of the stress the next increment starts from,
+    ``converged_stress`` that whole stress when the solver kept it.
     """
 
     pressure: np.ndarray | None = None
     first_contact_offset: float | None = None
     converged: tuple[np.ndarray, tuple[slice, slice]] | None = None
+    converged_stress: np.ndarray | None = None
 
-    def remember(self, pressure: np.ndarray, window: tuple[slice, slice], load: float) -> None:
-        """Keep the converged ``pressure`` at ``window`` (None when unloaded) as ``converged``."""
+    def remember(self, pressure: np.ndarray, window: tuple[slice, slice], load: float,
+                 stress: np.ndarray | None = None) -> None:
+        """Keep the converged ``pressure`` at ``window`` (None when unloaded) and ``stress``."""
         self.converged = (pressure, window) if load > 0.0 and pressure.any() else None
+        self.converged_stress = stress

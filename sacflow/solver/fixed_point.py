@@ -132,8 +132,8 @@ class PlasticFixedPoint:
         flow along the increment's straight trial path by step doubling
         (:func:`~sacflow.mechanics.return_extrapolation.extrapolated_return`, second order in
         the increment); otherwise by one backward-Euler step. The analytic Jacobian is then the
-        one-step return's tangent: an approximation of the map's, which Newton–Krylov allows
-        (its steps are checked on ``G`` itself).
+        one-step return's tangent at the extrapolated increments: an approximation of the
+        map's, which Newton–Krylov allows (its steps are checked on ``G`` itself).
 
         With elastic inhomogeneities the return is masked in their cells and ``G`` there is the
         Krylov-corrected equivalent eigenstrain of the evaluated stress
@@ -235,7 +235,9 @@ class PlasticFixedPoint:
         """Return-map the trial stress with the body's law: isotropic, or with the backstress.
 
         Returns the return the fixed point uses (step-doubled from ``start_stress`` when the
-        settings ask for it) and the one-step backward-Euler return (the Jacobian's).
+        settings ask for it) and the one the Jacobian's tangent is built on: the one-step
+        backward-Euler return, or with step doubling the same result (the tangent of one step
+        at the extrapolated increments).
         """
         if self.kinematic is None:
             full = return_map(trial, equivalent, self.law, self.mu, self.depth,
@@ -245,9 +247,10 @@ class PlasticFixedPoint:
                               kinematic=self.kinematic, backstress=backstress)
         if start_stress is None or self.settings.return_integration != "extrapolated":
             return full, full
-        return extrapolated_return(start_stress, trial, equivalent, self.law, self.mu,
-                                   self.depth, kinematic=self.kinematic, backstress=backstress,
-                                   full=full)
+        ret = extrapolated_return(start_stress, trial, equivalent, self.law, self.mu,
+                                  self.depth, kinematic=self.kinematic, backstress=backstress,
+                                  full=full)  # in place of the one-step increments
+        return ret, ret
 
     def _tangent(self, trial: np.ndarray, ret: ReturnResult, equivalent: np.ndarray,
                  backstress: np.ndarray | None) -> ReturnTangent:

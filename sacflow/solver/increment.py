@@ -67,7 +67,9 @@ class Increment:
     loops (0 when elastic), when the solver already has them the residual stress and surface
     displacement of ``εp_old + Δεp`` (+ ε*), with kinematic hardening the updated backstress,
     and with elastic inhomogeneities their equivalent eigenstrain ε* on their cells (m, 6)
-    and the Krylov iterations it took.
+    and the Krylov iterations it took; ``stress`` the total stress of the converged state
+    (initial stress included) when the coupled fixed point made it: the start of the next
+    increment's trial path.
     """
 
     window: tuple[slice, slice]
@@ -82,6 +84,7 @@ class Increment:
     backstress: np.ndarray | None = None
     equivalent_eigenstrain: np.ndarray | None = None
     inclusion_iterations: int = 0
+    stress: np.ndarray | None = None
 
 
 @dataclass
@@ -92,7 +95,7 @@ class CouplingTrace:
     contact solved on it; ``change`` the relative change of that displacement from the
     evaluation before (inf until there is one); ``stress`` the residual stress of the iterate,
     or, when the eigenstrain operator added the contact pressure's stress (``pressure``, on the
-    body grid), that total.
+    body grid), that total; ``total`` the whole stress the evaluation returned.
     """
 
     displacement: np.ndarray | None = None
@@ -100,6 +103,7 @@ class CouplingTrace:
     change: float = np.inf
     stress: np.ndarray | None = None
     pressure: np.ndarray | None = None
+    total: np.ndarray | None = None
 
 
 class IncrementSolver:
@@ -188,9 +192,10 @@ class IncrementSolver:
         inclusion = self.inclusion
         if inclusion is not None:
             inclusion.iterations = 0
+        total = None
         if self.settings.scheme == "coupled":
-            result, update, fields, change = self.coupled(solve, sl, step, body, fixed is None,
-                                                          start)
+            result, update, fields, change, total = self.coupled(
+                solve, sl, step, body, fixed is None, start)
         else:
             result, update, change = self.nested(solve, sl, step, body, start)
         plastic_strain, eps_star, iterations = update.plastic_strain, None, 0
@@ -202,7 +207,7 @@ class IncrementSolver:
         return Increment(sl, geometry, result,
                          (plastic_strain, update.equivalent_plastic_strain),
                          contact_iterations, update.applications, fields, update.residual, change,
-                         update.backstress, eps_star, iterations)
+                         update.backstress, eps_star, iterations, total)
 
     def eigenstrain(self, body: BodyState) -> np.ndarray:
         """Return the body's eigenstrain: its plastic strain, plus ε* in the inhomogeneities."""
@@ -217,16 +222,23 @@ class IncrementSolver:
             x[self.inclusion.cells] = body.equivalent_eigenstrain
         return x
 
-    def start_stress(self, body: BodyState, history: ContactHistory) -> np.ndarray:
+    def start_stress(self, body: BodyState, history: ContactHistory) -> np.ndarray | None:
         """Converged stress σ_n [Pa] at the start of the increment, (n1, n2, nz, 6).
 
         The stress of the last converged contact pressure at its window, the residual stress of
-        the plastic strain and the initial stress: where the increment's trial path starts.
+        the plastic strain and the initial stress: where the increment's trial path starts
+        (kept from the last increment when its fixed point made it, computed otherwise).
+        None when that stress is zero (a first increment from rest): the straight path from
+        zero is radial, which one backward-Euler step integrates exactly.
         """
+        if history.converged_stress is not None:
+            return history.converged_stress
         if history.converged is None:
+            if self.initial_stress is None and not body.residual_stress.any():
+                return None
             return self.with_initial_stress(body.residual_stress.copy())
         pressure, window = history.converged
-        stress = self.load_stress(pressure, window)
+        stress = np.ascontiguousarray(self.load_stress(pressure, window))  # gathered per point
         stress += body.residual_stress
         return stress
 
@@ -242,7 +254,8 @@ class IncrementSolver:
     def coupled(
         self, solve: ContactSolve, sl: tuple[slice, slice], step: int, body: BodyState,
         pressure_follows: bool, start_stress: np.ndarray | None = None,
-    ) -> tuple[ContactResult, PlasticUpdate, tuple[np.ndarray, np.ndarray], float]:
+    ) -> tuple[ContactResult, PlasticUpdate, tuple[np.ndarray, np.ndarray], float,
+               np.ndarray | None]:
         """Plastic strain increment as one fixed point, the contact solved at every evaluation.
 
         ``G(x) = R(σ^pr(p(x)) + σ^r(εp_old + x) + 2μ x)`` with ``p(x)`` the contact pressure on
@@ -256,8 +269,8 @@ class IncrementSolver:
         residual fields of ``εp_old + x`` are then those of the last evaluation, and the step
         needs no further application. ``pressure_follows`` says whether the contact pressure
         depends on the iterate (the residual displacement is in the gap). Returns the contact,
-        the plastic update, the residual stress and displacement of ``εp_old + x`` and the
-        final coupling change.
+        the plastic update, the residual stress and displacement of ``εp_old + x``, the
+        final coupling change and the whole stress of the last evaluation.
         """
         opts, ops = self.settings, self.operators
         u_old = body.residual_displacement
@@ -288,11 +301,11 @@ class IncrementSolver:
                 total = ops.eigenstrain.stress(traction, pressure)
                 # the residual stress alone, if this is the last evaluation: made at the end
                 last.stress, last.pressure = total, pressure
-                if self.initial_stress is None:
-                    return total, apps
-                return total + self.initial_stress, apps  # ``total`` stays without it
+                last.total = total if self.initial_stress is None else total + self.initial_stress
+                return last.total, apps  # ``total`` stays without the initial stress
             last.stress, last.pressure = stress, None
-            return self.load_stress(result.pressure, sl) + stress, apps
+            last.total = self.load_stress(result.pressure, sl) + stress
+            return last.total, apps
 
         def converged(res: float) -> bool:
             return res < opts.plasticity_tolerance and last.change < opts.coupling_tolerance
@@ -314,7 +327,7 @@ class IncrementSolver:
         assert stress is not None and u is not None and result is not None
         if last.pressure is not None:  # fused: take the contact pressure's stress out again
             stress = stress - ops.body_pressure_stress(last.pressure)
-        return result, update, (stress, u), coupling
+        return result, update, (stress, u), coupling, last.total
 
     def nested(self, solve: ContactSolve, sl: tuple[slice, slice], step: int,
                body: BodyState, start_stress: np.ndarray | None = None,

@@ -303,7 +303,7 @@ class Simulation:
         if plan.load <= 0.0:
             self.history.pressure = None
         inc = self.solve_increment(step, plan)
-        self.history.remember(inc.contact.pressure, inc.window, plan.load)
+        self.history.remember(inc.contact.pressure, inc.window, plan.load, inc.stress)
         body = self.body
         plastic = inc.update is not None and inc.update[0].any()
         if plastic:
