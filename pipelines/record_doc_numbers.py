@@ -284,7 +284,7 @@ def recompute(group: str, out: Path) -> dict[str, float]:
 def agrees(row: dict[str, str], value: float) -> bool:
     """Whether a recomputed value is the row's recorded one within its relative tolerance."""
     recorded = float(row["value"])
-    return abs(value - recorded) <= float(row["tolerance"]) * abs(recorded)
+    return bool(abs(float(value) - recorded) <= float(row["tolerance"]) * abs(recorded))
 
 
 def _write(rows: list[dict[str, str]], new: dict[str, float]) -> None:
@@ -315,7 +315,7 @@ def main(argv: list[str] | None = None) -> int:
         if row["key"] in new:
             value = new[row["key"]]
             print(json.dumps({"key": row["key"], "file": row["file"],
-                              "recorded": float(row["value"]), "recomputed": value,
+                              "recorded": float(row["value"]), "recomputed": float(value),
                               "agrees": agrees(row, value)}))
     if args.write:
         _write(rows, new)
