@@ -64,19 +64,23 @@ def coarse_results(nx: int, nz: int) -> dict[str, float]:
 @pytest.mark.slow
 def test_observed_order_of_convergence():
     """Richardson's observed order p = log2((f_2h − f_4h) / (f_h − f_2h)) on three grids of
-    ratio 2 (16, 32, 64 cells across; about 35 s: slow).
+    ratio 2 (16, 32, 64 cells across, layers nested; about 35 s: slow).
 
-    Expected p = 2: every operator samples piecewise-constant fields at cell centres (midpoint
-    rule) and the cell maximum of a smooth peak is an O(h²) sample of it. Asserted
-    1.5 <= p <= 3: three grids give one estimate, which carries the pre-asymptotic drift
-    (the peak moves relative to the cell centres). Measured on this project's machine: max εp
-    0.6131 / 0.6374 / 0.6444 %, p = 1.80; print depth 10.65 / 12.26 / 12.53 nm, p = 2.55.
-    (On grids of ratio 1.5 with layers not nested, 16 / 24 / 36 / 54 cells, the cell maximum
-    of εp is not monotone, 0.6131 / 0.6312 / 0.6253 / 0.6440 %: no order can be read off it.)
+    The print depth, an integral of the plastic strain, converges at the operators' formal
+    order 2 (every operator samples piecewise-constant fields at cell centres, a midpoint
+    rule): asserted 1.5 <= p <= 3, three grids giving one estimate with its pre-asymptotic
+    drift. The cell maximum of εp is a sample, not an integral: where the peak sits between
+    layer centres it converges at first order (the convergence study, docs/convergence.md,
+    measures p = 1.05 for it under layer refinement at 650 mN): asserted p >= 1 and a shrinking
+    change. Measured on this project's machine with the step-doubled return: max εp
+    0.6154 / 0.6341 / 0.6415 %, p = 1.34; print depth 10.80 / 12.49 / 12.77 nm, p = 2.55
+    (with one backward-Euler step per increment: 0.6131 / 0.6374 / 0.6444 %, p = 1.80, and
+    10.65 / 12.26 / 12.53 nm, p = 2.55).
     """
     runs = [coarse_results(nx, nz) for nx, nz in DOUBLING]
+    lowest = {"print_depth": 1.5, "max_plastic_strain": 1.0}
     for name in runs[0]:
         coarse, medium, fine = (r[name] for r in runs)
         assert (medium - coarse) * (fine - medium) > 0, f"{name} not monotone: {runs}"
         order = np.log2((medium - coarse) / (fine - medium))
-        assert 1.5 <= order <= 3.0, f"{name}: observed order {order:.2f}, {runs}"
+        assert lowest[name] <= order <= 3.0, f"{name}: observed order {order:.2f}, {runs}"
