@@ -253,6 +253,48 @@ def melan_on_runs(out: Path) -> dict[str, float]:
 
 
 #: group name -> (speed, function of the output folder returning {key: value in SI units}).
+#: The convergence study's cases quoted in docs/convergence.md, by the label its table uses.
+CONVERGENCE_ROWS = {
+    "650 mN, print depth": ("nanoindentation-650mN", "print_depth"),
+    "650 mN, max εp (refined)": ("nanoindentation-650mN", "max_plastic_strain_refined"),
+    "650 mN, approach at peak load": ("nanoindentation-650mN", "approach_at_peak_load"),
+    "650 mN, peak pressure": ("nanoindentation-650mN", "peak_pressure"),
+    "650 mN, min residual σ11 on the axis": ("nanoindentation-650mN", "residual_s11_axis_min"),
+    "190 mN, print depth": ("nanoindentation-190mN", "print_depth"),
+    "linear hardening 650 mN, max εp (refined)": ("nanoindentation-linear-650mN",
+                                                   "max_plastic_strain_refined"),
+    "press 600 N, max εp": ("dent-from-indentation-press", "max_plastic_strain"),
+    "press 600 N, min residual σ11 on the axis": ("dent-from-indentation-press",
+                                                  "residual_s11_axis_min"),
+}
+
+
+def convergence_study(out: Path) -> dict[str, float]:
+    """The increment sequences of ``data/convergence*-summary.csv`` that convergence.md quotes.
+
+    Per row of its first table: the observed order and the shipped error with one
+    backward-Euler step per increment (``..._be_order``, ``..._be_error``) and step-doubled
+    (``..._order``, ``..._error``), the Richardson limit and its relative uncertainty.
+    """
+    def summary(name: str) -> dict[tuple[str, str], dict[str, str]]:
+        with open(ROOT / "data" / name, newline="", encoding="utf-8") as f:
+            return {(r["case"], r["quantity"]): r for r in csv.DictReader(f)
+                    if r["sequence"] == "increments"}
+
+    after = summary("convergence-summary.csv")
+    before = summary("convergence-backward-euler-summary.csv")
+    numbers: dict[str, float] = {}
+    for index, key in enumerate(CONVERGENCE_ROWS.values()):
+        stem = f"convergence_{index}"
+        numbers[f"{stem}_be_order"] = float(before[key]["order"])
+        numbers[f"{stem}_be_error"] = float(before[key]["shipped_error"])
+        numbers[f"{stem}_order"] = float(after[key]["order"])
+        numbers[f"{stem}_error"] = float(after[key]["shipped_error"])
+        numbers[f"{stem}_limit"] = float(after[key]["limit"])
+        numbers[f"{stem}_uncertainty"] = float(after[key]["relative_uncertainty"])
+    return numbers
+
+
 GROUPS: dict[str, tuple[str, Callable[[Path], dict[str, float]]]] = {
     "hertz_elastic": ("fast", hertz_elastic),
     "closed_forms": ("fast", closed_forms),
@@ -267,6 +309,7 @@ GROUPS: dict[str, tuple[str, Callable[[Path], dict[str, float]]]] = {
     "shakedown": ("slow", shakedown),
     "dent_fatigue": ("slow", dent_fatigue),
     "melan_on_runs": ("slow", melan_on_runs),
+    "convergence_study": ("fast", convergence_study),
 }
 
 
