@@ -295,6 +295,33 @@ def convergence_study(out: Path) -> dict[str, float]:
     return numbers
 
 
+#: The cells of docs/initial-states.md's table of the press's residual hydrostatic stress:
+#: (grid, radius [µm] the nearest cell centre on x1 > 0 is taken at, depth label of
+#: ``data/dent-hydrostatic.csv``); 4 µm is the first layer centre of the 64-layer grids.
+HYDROSTATIC_CELLS = [
+    (grid, radius, where)
+    for grid, depths in (("48x16", ("16 um",)), ("48x32", ("16 um", "8 um")),
+                         ("48x64", ("16 um", "8 um", "first layer")),
+                         ("72x64", ("16 um", "8 um", "first layer")))
+    for radius, wheres in ((148, ("16 um",)), (177, depths), (205, depths))
+    for where in wheres
+]
+
+
+def dent_hydrostatic(out: Path) -> dict[str, float]:
+    """σh of the press where docs/initial-states.md quotes it (data/dent-hydrostatic.csv)."""
+    with open(ROOT / "data" / "dent-hydrostatic.csv", newline="", encoding="utf-8") as f:
+        rows = [r for r in csv.DictReader(f) if r["quantity"] == "hydrostatic"]
+    numbers: dict[str, float] = {}
+    for grid, radius, where in HYDROSTATIC_CELLS:
+        line = [r for r in rows if r["grid"] == grid and r["where"] == where
+                and float(r["x1_m"]) > 0]
+        nearest = min(line, key=lambda r: abs(float(r["x1_m"]) - radius * 1e-6))
+        numbers[f"hydrostatic_{grid}_{radius}_{where.replace(' ', '_')}"] = float(
+            nearest["value_Pa"])
+    return numbers
+
+
 GROUPS: dict[str, tuple[str, Callable[[Path], dict[str, float]]]] = {
     "hertz_elastic": ("fast", hertz_elastic),
     "closed_forms": ("fast", closed_forms),
@@ -310,6 +337,7 @@ GROUPS: dict[str, tuple[str, Callable[[Path], dict[str, float]]]] = {
     "dent_fatigue": ("slow", dent_fatigue),
     "melan_on_runs": ("slow", melan_on_runs),
     "convergence_study": ("fast", convergence_study),
+    "dent_hydrostatic": ("fast", dent_hydrostatic),
 }
 
 
