@@ -322,6 +322,31 @@ def dent_hydrostatic(out: Path) -> dict[str, float]:
     return numbers
 
 
+#: Cells per radius of the Eshelby sphere that docs/inclusions.md quotes.
+ESHELBY_CELLS = (2, 3, 5)
+
+
+def eshelby_sphere(out: Path) -> dict[str, float]:
+    """Interior-strain errors of Eshelby's sphere (E*/E = 2) and their observed order.
+
+    The runs and the closed form of ``tests/test_inhomogeneity_solver.py`` (a few seconds).
+    """
+    sys.path.insert(0, str(ROOT / "tests"))
+    import test_inhomogeneity_solver as eshelby
+
+    ratio = 2.0
+    _, exact = eshelby.eshelby_interior(ratio)
+    errors = []
+    for cells in ESHELBY_CELLS:
+        _, states = eshelby.run(eshelby.eshelby_inputs(ratio, cells))
+        _, strain = eshelby.interior(states[-1], ratio)
+        errors.append(float(np.linalg.norm(strain - exact) / np.linalg.norm(exact)))
+    numbers = {f"eshelby_error_{cells}": e for cells, e in zip(ESHELBY_CELLS, errors, strict=True)}
+    numbers["eshelby_order"] = float(np.log(errors[0] / errors[-1])
+                                     / np.log(ESHELBY_CELLS[-1] / ESHELBY_CELLS[0]))
+    return numbers
+
+
 GROUPS: dict[str, tuple[str, Callable[[Path], dict[str, float]]]] = {
     "hertz_elastic": ("fast", hertz_elastic),
     "closed_forms": ("fast", closed_forms),
@@ -338,6 +363,7 @@ GROUPS: dict[str, tuple[str, Callable[[Path], dict[str, float]]]] = {
     "melan_on_runs": ("slow", melan_on_runs),
     "convergence_study": ("fast", convergence_study),
     "dent_hydrostatic": ("fast", dent_hydrostatic),
+    "eshelby_sphere": ("fast", eshelby_sphere),
 }
 
 
