@@ -142,9 +142,10 @@ def study(args: argparse.Namespace) -> int:
     for name in args.cases:
         study_case = STUDY_CASES[name]
         overrides = [*(quick_overrides(study_case) if args.quick else ()), *args.overrides]
-        base = shipped_discretisation(base_case(study_case, overrides))
+        case = base_case(study_case, overrides)
+        base = shipped_discretisation(case)
         runner = LevelRunner(study_case, overrides, args.cache, fingerprint)
-        sequences = sequences_for(overrides)
+        sequences = sequences_for(case)
         plan = {seq: sequences[seq].levels(base, args.levels) for seq in args.sequences}
         if args.plan:
             print_plan(runner, base, plan)

@@ -33,6 +33,7 @@ import numpy as np
 
 from sacflow.config.solver_inputs import simulation_for
 from sacflow.studies.convergence import STUDY_CASES, base_case, shipped_discretisation
+from sacflow.studies.convergence_table import write_csv
 
 ROOT = Path(__file__).resolve().parent.parent
 #: Grids (surface cells nx = ny, layers) run by default: layers refined by 2 at the shipped
@@ -42,24 +43,27 @@ DEFAULT_GRIDS = "48x16,48x32,48x64,72x64"
 #: centres are 16 and 48 µm).
 DEPTHS = (8e-6, 16e-6, 32e-6, 48e-6)
 STUDY_CASE = STUDY_CASES["dent-from-indentation-press"]
+#: Columns of ``dent-hydrostatic.csv``.
+COLUMNS = ("grid", "where", "depth_m", "x1_m", "quantity", "value_Pa")
 
 
 def parse_grids(text: str) -> list[tuple[int, int]]:
-    """``"48x16,48x32"`` → [(48, 16), (48, 32)]."""
+    """``"48x16,48x32"`` → [(48, 16), (48, 32)]; a one-line message for anything else."""
     grids = []
     for item in text.split(","):
         nx, _, nz = item.strip().partition("x")
+        if not (nx.isdigit() and nz.isdigit() and int(nx) > 0 and int(nz) > 0):
+            raise SystemExit(f"--grids: {item.strip()!r} is not CELLSxLAYERS (e.g. 48x32): give "
+                             "positive whole numbers, comma-separated")
         grids.append((int(nx), int(nz)))
     return grids
 
 
-def write_atomic(path: Path, text: str, overwrite: bool) -> None:
-    """Write ``text`` to ``path`` through a temporary file; refuse to replace without leave."""
-    if path.exists() and not overwrite:
-        raise SystemExit(f"{path} exists: pass --overwrite to replace it")
+def write_json(path: Path, data: dict[str, Any]) -> None:
+    """Write this script's cache entry ``path`` through a temporary file (whole or absent)."""
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
     with os.fdopen(fd, "w", encoding="utf-8") as f:
-        f.write(text)
+        json.dump(data, f)
     os.replace(tmp, path)
 
 
@@ -94,7 +98,7 @@ def cached_run(out: Path, nx: int, nz: int, depth: float) -> dict[str, Any]:
         if data["depth"] == depth:
             return data
     data = run_grid(nx, nz, depth)
-    write_atomic(path, json.dumps(data), overwrite=True)  # the cache is this script's own
+    write_json(path, data)  # the cache is this script's own
     return data
 
 
@@ -148,7 +152,10 @@ def plot(runs: list[dict[str, Any]], path: Path) -> None:
         ax.legend(fontsize=7)
         ax.grid(alpha=0.3)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp.png")
+    os.close(fd)
+    fig.savefig(tmp, dpi=110)
+    os.replace(tmp, path)  # a whole picture or none
 
 
 def summary(runs: list[dict[str, Any]]) -> list[str]:
@@ -175,21 +182,18 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--grids", default=DEFAULT_GRIDS, help="nx x nz, comma-separated")
     parser.add_argument("--overwrite", action="store_true", help="replace the table and plot")
     args = parser.parse_args(argv)
+    grids = parse_grids(args.grids)
+    table, figure = args.out / "dent-hydrostatic.csv", args.out / "dent-hydrostatic.png"
+    for path in (table, figure):  # before any run: never replaced without --overwrite
+        if path.exists() and not args.overwrite:
+            raise SystemExit(f"{path} exists: pass --overwrite to replace it, or another --out")
     args.out.mkdir(parents=True, exist_ok=True)
     depth = shipped_discretisation(base_case(STUDY_CASE)).depth
     runs = []
-    for nx, nz in parse_grids(args.grids):
+    for nx, nz in grids:
         print(f"press on {nx}² × {nz} layers over {depth * 1e6:.1f} µm ...", flush=True)
         runs.append(cached_run(args.out, nx, nz, depth))
-    rows = table_rows(runs)
-    table = args.out / "dent-hydrostatic.csv"
-    lines = ["grid,where,depth_m,x1_m,quantity,value_Pa"]
-    lines += [",".join(str(r[k]) for k in ("grid", "where", "depth_m", "x1_m", "quantity",
-                                           "value_Pa")) for r in rows]
-    write_atomic(table, "\n".join(lines) + "\n", args.overwrite)
-    figure = args.out / "dent-hydrostatic.png"
-    if figure.exists() and not args.overwrite:
-        raise SystemExit(f"{figure} exists: pass --overwrite to replace it")
+    write_csv(table, table_rows(runs), COLUMNS, overwrite=True)  # checked before the runs
     plot(runs, figure)
     print("\n".join(summary(runs)))
     print(f"wrote {table} and {figure}")

@@ -223,18 +223,17 @@ SEQUENCES: dict[str, Refinement] = {
 INCREMENT_SEQUENCES = ("increments", "together")
 
 
-def sequences_for(overrides: Sequence[str]) -> dict[str, Refinement]:
-    """Return the sequences with the formal orders of the solver the ``overrides`` choose.
+def sequences_for(case: Case) -> dict[str, Refinement]:
+    """Return the sequences with the formal orders of ``case``'s return integration.
 
-    The step-doubled return (the default ``solver.return_integration``) is second order in the
-    increment, one backward-Euler step first order.
+    The step-doubled return (``solver.return_integration = "extrapolated"``, the default) is
+    second order in the increment, one backward-Euler step first order.
     """
-    one_step = any(o.replace(" ", "") == "solver.return_integration=backward_euler"
-                   for o in overrides)
-    if not one_step:
+    if case.solver.return_integration == "extrapolated":
         return dict(SEQUENCES)
     return {name: replace(seq, formal_order=1.0) if name in INCREMENT_SEQUENCES else seq
             for name, seq in SEQUENCES.items()}
+
 
 #: Unit of the quantities of :func:`measure` (SI) by name prefix; names ending in ``_depth``
 #: are depths [m].
