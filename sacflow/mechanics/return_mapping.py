@@ -49,7 +49,13 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from sacflow.mechanics.hardening import HardeningLaw, KinematicLaw
+from sacflow.mechanics.hardening import (
+    HardeningLaw,
+    KinematicLaw,
+    LinearHardening,
+    PerfectPlasticity,
+    SwiftHardening,
+)
 from sacflow.mechanics.stress_measures import (
     deviator,
     deviatoric_equivalent,
@@ -58,7 +64,7 @@ from sacflow.mechanics.stress_measures import (
 )
 
 __all__ = ["MAX_ITERATIONS", "TOLERANCE", "ReturnMappingError", "ReturnResult",
-           "return_map", "solve_consistency"]
+           "radial_increments", "return_map", "solve_consistency"]
 
 FloatArray = NDArray[np.float64]
 #: Relative tolerance on the consistency residual (of σ_Y).
@@ -298,25 +304,64 @@ def isotropic_return(sig2: FloatArray, lead: tuple[int, ...], p_old: FloatArray,
     if idx.size == 0:
         return ReturnResult(sig2.reshape(shape).copy() if with_stress else None,
                             np.zeros(shape), np.zeros(lead), plastic, 0)
+    from sacflow.mechanics.radial_kernels import returned_into, scaled_deviators_into  # numba
+
     q_pl = q_tr[idx]
     d_pl = None if d_all is None else d_all[idx]
-    equation = IsotropicConsistency(q_pl, p_old[idx], d_pl, law, 3.0 * mu)
-    dp, iterations = solve_consistency(equation, tol, max_iter)
+    dp, iterations = radial_increments(q_pl, p_old[idx], d_pl, law, 3.0 * mu, tol, max_iter)
     dp_all = np.zeros(q_tr.shape)
     dp_all[idx] = dp
-    sig_pl = sig2[idx]
-    s_pl = deviator(sig_pl)
     dep = np.zeros(sig2.shape)
-    dep[idx] = s_pl * (1.5 * dp / q_pl)[:, None]
+    scaled_deviators_into(sig2, idx, 1.5 * dp / q_pl, dep)  # Δεp = 3/2 Δp s/q_tr
     stress = None
     if with_stress:
         ratio = law.yield_stress(p_old[idx] + dp, d_pl) / q_pl  # s_new = s σ_Y(p + Δp)/q_tr
-        new = s_pl * ratio[:, None]
-        new[:, :3] += ((sig_pl[:, 0] + sig_pl[:, 1] + sig_pl[:, 2]) / 3.0)[:, None]
         stress = sig2.copy()
-        stress[idx] = new
+        returned_into(sig2, idx, ratio, stress)
         stress = stress.reshape(shape)
     return ReturnResult(stress, dep.reshape(shape), dp_all.reshape(lead), plastic, iterations)
+
+
+def radial_increments(q: FloatArray, p0: FloatArray, depth: FloatArray | None,
+                      law: HardeningLaw, three_mu: float, tol: float = TOLERANCE,
+                      max_iter: int = MAX_ITERATIONS) -> tuple[FloatArray, int]:
+    """Δp of the radial return at plastic points (q > σ_Y(p₀)): r = q − 3μΔp − σ_Y(p₀ + Δp).
+
+    Linear hardening (and perfect plasticity) has the closed form Δp = (q − σ_Y(p₀))/(3μ + H),
+    which the Newton iteration of :func:`solve_consistency` reaches in its first update; the
+    Swift law is solved by the same iteration compiled point by point
+    (:func:`~sacflow.mechanics.radial_kernels.swift_increments`); any other law by
+    :func:`solve_consistency` on arrays.
+
+    Returns
+    -------
+    dp : ndarray
+        Δp at each point.
+    iterations : int
+        Newton/bisection updates of the slowest point (1 for the closed form).
+
+    Raises
+    ------
+    ReturnMappingError
+        When a point has not converged after ``max_iter`` updates.
+    """
+    kind = type(law)
+    if kind is LinearHardening or kind is PerfectPlasticity:
+        assert isinstance(law, LinearHardening)
+        dp: FloatArray = (q - law.yield_stress(p0)) / (three_mu + law.modulus)
+        return dp, 1
+    if kind is SwiftHardening:
+        from sacflow.mechanics.radial_kernels import swift_increments  # numba
+
+        assert isinstance(law, SwiftHardening)
+        dp, iterations, failed = swift_increments(
+            np.ascontiguousarray(q), np.ascontiguousarray(p0, dtype=float), law.B, law.C,
+            law.n, law.scale, three_mu, tol, max_iter)
+        if failed:
+            raise ReturnMappingError(f"return mapping: {failed} points not converged after "
+                                     f"{max_iter} iterations (Swift law)")
+        return dp, iterations
+    return solve_consistency(IsotropicConsistency(q, p0, depth, law, three_mu), tol, max_iter)
 
 
 def return_with_backstress(sig2: FloatArray, lead: tuple[int, ...], p_old: FloatArray,
