@@ -265,3 +265,23 @@ def test_a_run_file_stores_the_own_plastic_strain_and_resumes(tmp_path):
     resumed = run_case(case, part, progress=False).isel(step=-1)
     np.testing.assert_allclose(resumed["equivalent_plastic_strain"].values, p, rtol=0,
                                atol=1e-4 * p.max())
+
+
+def test_own_hardening_enters_the_id_and_an_elastic_one_is_none():
+    data = hertz_data(SPHERE)
+    data["body"]["hardening"] = L1
+    without = case_from_dict(data)
+    data["body"]["inhomogeneity"][0]["hardening"] = {"law": "elastic"}
+    elastic = case_from_dict(data)
+    data["body"]["inhomogeneity"][0]["hardening"] = {"law": "perfectly_plastic",
+                                                     "yield_stress": 2e9}
+    plastic = case_from_dict(data)
+    assert elastic.case_id == without.case_id
+    assert "hardening" not in without.identity()["body"]["inhomogeneity"][0]
+    assert plastic.case_id != without.case_id
+
+
+def test_the_solver_refuses_own_hardening_in_an_elastic_body():
+    inputs = own(hertz_inputs(16), LinearHardening(2e9, 1e10))
+    with pytest.raises(ValueError, match="needs a plastic body"):
+        Simulation(inputs)

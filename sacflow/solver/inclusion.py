@@ -223,12 +223,22 @@ class EquivalentInclusion:
 
 
 def inclusion_for(inputs: SolverInputs, coords: GridCoords) -> EquivalentInclusion | None:
-    """Return the equivalent inclusion of the inputs' inhomogeneities on ``coords``, or None."""
+    """Return the equivalent inclusion of the inputs' inhomogeneities on ``coords``, or None.
+
+    Raises
+    ------
+    ValueError
+        When an inhomogeneity has a hardening law of its own in an elastic body (whose run
+        keeps no plastic state: the case schema refuses it too).
+    """
     if not inputs.inhomogeneities:
         return None
     phase = phase_field(inputs.inhomogeneities, coords.x1, coords.x2, coords.x3)
     material, settings = inputs.material, inputs.settings
     dz = inputs.grid.depth / inputs.grid.nz
     own = own_hardening(phase, inputs.inhomogeneities, material.E, material.nu, coords.x3)
+    if own is not None and not material.plastic:
+        raise ValueError("an inhomogeneity's own hardening needs a plastic body (an elastic "
+                         "body keeps no plastic state): give the body a plastic law")
     return EquivalentInclusion(phase, inputs.inhomogeneities, material.E, material.nu,
                                (*inputs.grid.cell, dz), settings, settings.fft_threads, own)
