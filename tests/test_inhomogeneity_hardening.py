@@ -16,7 +16,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 from scipy.optimize import fsolve
-from test_inhomogeneity_case import SPHERE, hertz_data
+from test_inhomogeneity_case import SPHERE, hertz_data, problem
 from test_inhomogeneity_solver import (
     NU,
     S0,
@@ -285,3 +285,27 @@ def test_the_solver_refuses_own_hardening_in_an_elastic_body():
     inputs = own(hertz_inputs(16), LinearHardening(2e9, 1e10))
     with pytest.raises(ValueError, match="needs a plastic body"):
         Simulation(inputs)
+
+
+LINEAR = {"law": "linear", "yield_stress": 1e9, "modulus": 1e9}
+MISTAKES = [  # (id, own hardening, body hardening, words the message must hold)
+    ("in-an-elastic-body", LINEAR, {"law": "elastic"},
+     ["body.inhomogeneity.0.hardening", "needs a plastic body", "body.hardening"]),
+    ("bad-value", {**LINEAR, "yield_stress": -1.0}, L1,
+     ["body.inhomogeneity.0.hardening.yield_stress", "must be > 0"]),
+    ("unknown-law", {"law": "bogus"}, L1, ["body.inhomogeneity.0.hardening.law", "'linear'"]),
+    ("unknown-key", {**LINEAR, "colour": 1}, L1,
+     ["body.inhomogeneity.0.hardening.colour", "unknown key"]),
+    ("backstress-alone", {**LINEAR, "kinematic": {"modulus": 1e9}}, L1,
+     ["body.inhomogeneity.0.hardening.kinematic", "body.hardening.kinematic"]),
+]
+
+
+@pytest.mark.parametrize(("hardening", "body", "words"), [m[1:] for m in MISTAKES],
+                         ids=[m[0] for m in MISTAKES])
+def test_each_own_hardening_mistake_names_its_field(hardening, body, words):
+    data = hertz_data({**SPHERE, "hardening": hardening})
+    data["body"]["hardening"] = body
+    line = problem(data)
+    for word in words:
+        assert word in line, line
