@@ -92,8 +92,6 @@ CHANGES = [  # (id, change of the sphere, words the message must hold)
      ["body.inhomogeneity.0.radius", "cells", "per semi-axis", "grid.nx >="]),
     ("zero-modulus", {"E": 0.0}, ["body.inhomogeneity.0.E", "must be > 0", "cavity"]),
     ("nu-half", {"nu": 0.5}, ["body.inhomogeneity.0.nu", "(-1, 0.5)"]),
-    ("own-hardening", {"hardening": {"law": "elastic"}},
-     ["body.inhomogeneity.0.hardening", "stays elastic", "remove it"]),
     ("unknown-shape", {"shape": "torus"}, ["body.inhomogeneity.0.shape", "'sphere'"]),
     ("cells-with-centre", {"shape": "cells", "radius": None, "cells": "points.txt"},
      ["body.inhomogeneity.0.centre", "not used", "cells"]),

@@ -91,19 +91,28 @@ def stiffness(modulus, nu):
     return c
 
 
+def eshelby_tensor(nu=NU):
+    """Eshelby's tensor of a sphere (6, 6, tensor shears) in a matrix of Poisson's ratio ``nu``.
+
+    S1111 = (7 − 5ν)/(15(1 − ν)), S1122 = (5ν − 1)/(15(1 − ν)), S1212 = (4 − 5ν)/(15(1 − ν))
+    (Mura §11).
+    """
+    f = 15 * (1 - nu)
+    eshelby = np.full((6, 6), 0.0)
+    eshelby[:3, :3] = (5 * nu - 1) / f
+    eshelby[range(3), range(3)] = (7 - 5 * nu) / f
+    eshelby[range(3, 6), range(3, 6)] = (4 - 5 * nu) / f
+    return eshelby
+
+
 def eshelby_interior(ratio):
     """Closed-form interior strain of a spherical inhomogeneity under σ11 = σ22 = S0.
 
     Mura §22: ``C_k (ε0 + S^E ε*) = C (ε0 + S^E ε* − ε*)``, the 6×6 system solved here with
-    the sphere's Eshelby tensor S1111 = (7 − 5ν)/(15(1 − ν)), S1122 = (5ν − 1)/(15(1 − ν)),
-    S1212 = (4 − 5ν)/(15(1 − ν)) (tensor shears); returns ε0 and ε = ε0 + S^E ε*.
+    the sphere's Eshelby tensor (:func:`eshelby_tensor`); returns ε0 and ε = ε0 + S^E ε*.
     """
     c, ck = stiffness(E, NU), stiffness(ratio * E, NU)
-    f = 15 * (1 - NU)
-    eshelby = np.full((6, 6), 0.0)
-    eshelby[:3, :3] = (5 * NU - 1) / f
-    eshelby[range(3), range(3)] = (7 - 5 * NU) / f
-    eshelby[range(3, 6), range(3, 6)] = (4 - 5 * NU) / f
+    eshelby = eshelby_tensor()
     remote = np.linalg.solve(c, [S0, S0, 0, 0, 0, 0])
     eps_star = np.linalg.solve((ck - c) @ eshelby + c, -(ck - c) @ remote)
     return remote, remote + eshelby @ eps_star

@@ -26,7 +26,7 @@ from sacflow.config.base import (
     field_error,
     unit_vector,
 )
-from sacflow.config.inclusions import Inhomogeneity
+from sacflow.config.inclusions import Inhomogeneity, check_own_hardening
 from sacflow.config.materials import HardeningLaw, InitialHardening, InitialResidualStress
 
 __all__ = [
@@ -60,9 +60,9 @@ class Body(Model):
     )
     inhomogeneity: tuple[Inhomogeneity, ...] = Field(
         (),
-        description="elastic inhomogeneities of the body ([[body.inhomogeneity]]): regions with "
-        "their own E and nu, solved by Eshelby's equivalent inclusion method; they stay elastic "
-        "whatever the body's hardening",
+        description="inhomogeneities of the body ([[body.inhomogeneity]]): regions with "
+        "their own E and nu, solved by Eshelby's equivalent inclusion method; elastic unless "
+        "given a hardening law of their own",
     )
 
     @model_validator(mode="after")
@@ -70,6 +70,7 @@ class Body(Model):
         if self.initial_hardening is not None and self.hardening.law == "elastic":
             raise field_error("initial_hardening", "an elastic body has no hardening; remove it "
                               "or give a plastic law")
+        check_own_hardening(self.hardening, self.inhomogeneity)
         return self
 
 

@@ -35,6 +35,7 @@ if TYPE_CHECKING:
 __all__ = [
     "DEFAULTS_LEFT_OUT",
     "NOT_IN_IDENTITY",
+    "OPTIONAL_INHOMOGENEITY_KEYS",
     "OPTIONAL_SEGMENT_KEYS",
     "OPTIONAL_TABLES",
     "PLASTIC_ONLY",
@@ -65,6 +66,9 @@ DEFAULTS_LEFT_OUT: dict[str, Any] = {"output.volume_precision": "float64",
                                      "body.inhomogeneity": [],
                                      "solver.inclusion_tolerance": 1e-8,
                                      "solver.inclusion_max_iterations": 1000}
+#: Keys of an inhomogeneity added after runs were stored, left out of the identity when absent
+#: (its own hardening: without it, or ``law = "elastic"``, the inhomogeneity stays elastic).
+OPTIONAL_INHOMOGENEITY_KEYS: tuple[str, ...] = ("hardening",)
 #: Options that change no number of an elastic body, left out of its identity.
 PLASTIC_ONLY: tuple[str, ...] = ("solver.return_integration",)
 #: Load-path segment options added after runs were stored, left out of the identity when unset.
@@ -165,11 +169,12 @@ def identity_of(data: dict[str, Any], fingerprints: FileFingerprints) -> dict[st
     -------
     dict
         ``data`` without :data:`NOT_IN_IDENTITY`, the optional segment keys when unset, the
-        optional tables when absent, :data:`DEFAULTS_LEFT_OUT` at their default (the return
-        integration at the value that reproduces the runs stored before the option: a plastic
-        case at the new default gets a new id, its numbers changed) and, for an elastic body,
-        :data:`PLASTIC_ONLY`; a measured surface's path and an inhomogeneity's cells file
-        replaced by ``sha256:<digest>``, a source run by ``case_id:<id>``.
+        optional tables and an inhomogeneity's own ``hardening`` when absent,
+        :data:`DEFAULTS_LEFT_OUT` at their default (the return integration at the value that
+        reproduces the runs stored before the option: a plastic case at the new default gets a
+        new id, its numbers changed) and, for an elastic body, :data:`PLASTIC_ONLY`; a measured
+        surface's path and an inhomogeneity's cells file replaced by ``sha256:<digest>``, a
+        source run by ``case_id:<id>``.
     """
     _drop_what_changes_no_number(data)
     if data["surface"]["kind"] == "measured" and fingerprints.surface_digest:
@@ -197,6 +202,9 @@ def _drop_what_changes_no_number(data: dict[str, Any]) -> None:
         _drop(data, dotted, lambda value: value is None)
     for dotted, default in DEFAULTS_LEFT_OUT.items():  # the same, for options at default
         _drop(data, dotted, partial(operator.eq, default))
+    for item in data.get("body", {}).get("inhomogeneity", ()):  # the same, per inhomogeneity
+        for key in OPTIONAL_INHOMOGENEITY_KEYS:
+            _drop(item, key, lambda value: value is None)
     if data["body"]["hardening"]["law"] == "elastic":
         for dotted in PLASTIC_ONLY:
             _drop(data, dotted, lambda value: True)

@@ -6,22 +6,27 @@ vanishing modulus). The solver replaces it by the equivalent eigenstrain of Eshe
 (Mura, *Micromechanics of Defects in Solids*, §22), ε* = (S* − S) : σ on its cells, S and S* the
 compliances of the matrix and of the inhomogeneity. Its shape is a sphere (``radius``), an
 ellipsoid with axes along x1, x2, x3 (``semi_axes``), a cuboid (``half_sides``), or a set of
-cells read from a file (``cells``, read by :mod:`sacflow.storage.inclusion_cells_file`). The
-inhomogeneity stays elastic whatever the body's hardening law: per-inhomogeneity hardening is
-refused with a message saying so. The checks that need the grid (inside the cuboid box,
-resolved by enough cells, no overlap) are in :mod:`sacflow.config.inclusion_checks`.
+cells read from a file (``cells``, read by :mod:`sacflow.storage.inclusion_cells_file`). An
+inhomogeneity stays elastic unless it has a ``hardening`` table of its own (the laws of
+``body.hardening``; ``law = "elastic"`` is the same as none): its cells then carry their own
+plastic strain, returned with that law and their own shear modulus
+(:mod:`sacflow.solver.own_hardening`); such a table needs a plastic body, and a kinematic part
+needs the body's (the backstress is the body's field). The checks that need the grid (inside
+the cuboid box, resolved by enough cells, no overlap) are in
+:mod:`sacflow.config.inclusion_checks`.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any, Literal
+from typing import Literal
 
-from pydantic import Field, model_validator
+from pydantic import Field, field_validator, model_validator
 
 from sacflow.config.base import FiniteFloat, Model, PoissonRatio, PositiveFloat, field_error
+from sacflow.config.materials import Elastic, HardeningLaw
 
-__all__ = ["SIZE_FIELDS", "Inhomogeneity"]
+__all__ = ["SIZE_FIELDS", "Inhomogeneity", "check_own_hardening"]
 
 #: The size field each shape takes (``cells``: the file of cell centres).
 SIZE_FIELDS: dict[str, str] = {
@@ -33,7 +38,7 @@ SIZE_FIELDS: dict[str, str] = {
 
 
 class Inhomogeneity(Model):
-    """One elastic inhomogeneity of body 1 (an entry of ``[[body.inhomogeneity]]``)."""
+    """One inhomogeneity of body 1 (an entry of ``[[body.inhomogeneity]]``)."""
 
     shape: Literal["sphere", "ellipsoid", "cuboid", "cells"] = Field(
         description="sphere (radius), ellipsoid with axes along x1, x2, x3 (semi_axes), cuboid "
@@ -62,16 +67,18 @@ class Inhomogeneity(Model):
     )
     nu: PoissonRatio = Field(description="Poisson's ratio of the inhomogeneity")
 
-    @model_validator(mode="before")
+    hardening: HardeningLaw | None = Field(
+        None,
+        description="the inhomogeneity's own hardening law, chosen by 'law' as body.hardening "
+        "(absent or law = \"elastic\": it stays elastic); needs a plastic body, and a "
+        "kinematic part needs the body's",
+    )
+
+    @field_validator("hardening", mode="after")
     @classmethod
-    def _no_own_hardening(cls, data: Any) -> Any:
-        if isinstance(data, dict) and "hardening" in data:
-            raise field_error(
-                "hardening",
-                "an inhomogeneity has no hardening law of its own: it stays elastic (E, nu), "
-                "the body's hardening applies to the matrix only; remove it",
-            )
-        return data
+    def _elastic_is_none(cls, value: HardeningLaw | None) -> HardeningLaw | None:
+        """``law = "elastic"`` is no hardening of its own: the same case as without the table."""
+        return None if isinstance(value, Elastic) else value
 
     @model_validator(mode="after")
     def _check_size(self) -> Inhomogeneity:
@@ -106,3 +113,28 @@ class Inhomogeneity(Model):
             return (self.radius, self.radius, self.radius)
         size = self.semi_axes or self.half_sides
         return (0.0, 0.0, 0.0) if size is None else (size[0], size[1], size[2])
+
+
+def check_own_hardening(body_hardening: HardeningLaw,
+                        items: tuple[Inhomogeneity, ...]) -> None:
+    """Refuse an inhomogeneity's own hardening in an elastic body, or its backstress alone.
+
+    The plastic fields, the box sizing and the stored variables of a run follow the body's law
+    (an elastic body stores no plastic strain); the backstress is a field of the body, there
+    only with the body's kinematic hardening. Raises :func:`~sacflow.config.base.field_error`
+    naming ``inhomogeneity.<i>.hardening``.
+    """
+    body_kinematic = getattr(body_hardening, "kinematic", None) is not None
+    for index, item in enumerate(items):
+        own = item.hardening
+        if own is None:
+            continue
+        where = f"inhomogeneity.{index}.hardening"
+        if isinstance(body_hardening, Elastic):
+            raise field_error(where, "an inhomogeneity's own hardening needs a plastic body: "
+                              "give body.hardening a plastic law (a perfectly_plastic one with "
+                              "a yield stress the matrix never reaches keeps it elastic) or "
+                              "remove it")
+        if getattr(own, "kinematic", None) is not None and not body_kinematic:
+            raise field_error(f"{where}.kinematic", "the backstress is the body's field: add "
+                              "[body.hardening.kinematic] or remove this one")

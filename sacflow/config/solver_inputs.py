@@ -133,7 +133,7 @@ def solver_inputs(case: Case, surface: MeasuredSurface | None = None,
 
 
 def inhomogeneities(case: Case, cells: CellPoints | None = None) -> tuple[Inhomogeneity, ...]:
-    """Return the elastic inhomogeneities of the body of ``case`` as the solver's.
+    """Return the inhomogeneities of the body of ``case`` as the solver's (own hardening too).
 
     A sphere gets its radius as its three semi-axes, a cuboid its half-sides; an inhomogeneity
     of ``shape = "cells"`` takes its points from ``cells`` (its centre and
@@ -147,10 +147,14 @@ def inhomogeneities(case: Case, cells: CellPoints | None = None) -> tuple[Inhomo
     found = []
     for index, item in enumerate(case.body.inhomogeneity):
         E, nu = float(item.E), float(item.nu)
+        own = item.hardening  # None: elastic
+        law = None if own is None else hardening_from_schema(own)
+        kinematic = None if own is None else kinematic_from_schema(own)
         if item.shape != "cells":
             assert item.centre is not None  # guaranteed by validation
             centre = (float(item.centre[0]), float(item.centre[1]), float(item.centre[2]))
-            found.append(Inhomogeneity(item.shape, centre, item.semi_axes_m(), E, nu))
+            found.append(Inhomogeneity(item.shape, centre, item.semi_axes_m(), E, nu,
+                                       law=law, kinematic=kinematic))
             continue
         points = None if cells is None or index >= len(cells) else cells[index]
         if points is None:
@@ -164,7 +168,7 @@ def inhomogeneities(case: Case, cells: CellPoints | None = None) -> tuple[Inhomo
         mid, half = 0.5 * (low + high), 0.5 * (high - low)
         found.append(Inhomogeneity(
             "cells", (float(mid[0]), float(mid[1]), float(mid[2])),
-            (float(half[0]), float(half[1]), float(half[2])), E, nu, points))
+            (float(half[0]), float(half[1]), float(half[2])), E, nu, points, law, kinematic))
     return tuple(found)
 
 

@@ -59,7 +59,10 @@ class PlasticUpdate:
 
     ``plastic_strain`` Δεp and ``equivalent_plastic_strain`` Δp are the increments; the
     residual-stress ``applications`` it took, its final relative ``residual`` and, with
-    kinematic hardening, the updated ``backstress``.
+    kinematic hardening, the updated ``backstress``. With inhomogeneities ``plastic_strain``
+    holds ``Δεp + ε*`` in the cells of their equivalent eigenstrain, and
+    ``inclusion_plastic_strain`` the Δεp (m, 6) of those cells when some inhomogeneity has a
+    hardening law of its own (None: all elastic, Δεp = 0 there).
     """
 
     plastic_strain: np.ndarray
@@ -67,6 +70,7 @@ class PlasticUpdate:
     applications: int
     residual: float
     backstress: np.ndarray | None
+    inclusion_plastic_strain: np.ndarray | None = None
 
 
 class PlasticFixedPoint:
@@ -83,7 +87,8 @@ class PlasticFixedPoint:
     depth : ndarray
         Depths of the cuboid layers [m] (depth-dependent laws).
     inclusion : EquivalentInclusion or None
-        The body's elastic inhomogeneities: no plastic flow in their cells, and the iterate
+        The body's inhomogeneities: no plastic flow of the body's law in their cells (their own
+        law where they have one, :mod:`sacflow.solver.own_hardening`), and the iterate
         carries their equivalent eigenstrain there (:mod:`sacflow.solver.inclusion`).
     """
 
@@ -139,7 +144,9 @@ class PlasticFixedPoint:
         Krylov-corrected equivalent eigenstrain of the evaluated stress
         (:meth:`~sacflow.solver.inclusion.EquivalentInclusion.update`): the fixed point solves
         the plastic increment and Eshelby's equivalence together (the Jacobian is then always
-        the finite-difference one).
+        the finite-difference one). An inhomogeneity with a hardening law of its own returns
+        with it and its own shear modulus, and ``G`` there is ``Δεp + ε*``
+        (:mod:`sacflow.solver.own_hardening`; finite-difference Jacobian too).
 
         Raises
         ------
@@ -150,7 +157,8 @@ class PlasticFixedPoint:
 
         follows = coupled if pressure_follows is None else pressure_follows
         inclusion = self.inclusion
-        follows = follows or (inclusion is not None and inclusion.active)
+        follows = follows or (inclusion is not None and (inclusion.active
+                                                         or inclusion.own is not None))
         plastic_strain, equivalent, backstress = state
         mu, shape, n = self.mu, x.shape, x.size
         applications = 0
@@ -166,15 +174,12 @@ class PlasticFixedPoint:
             trial += stress
             ret, full = self._return(trial, equivalent, backstress, start_stress)
             gx = ret.plastic_strain_increment
+            own = None
             if inclusion is not None:
-                self._mask(ret, backstress)
-                if full is not ret:
-                    self._mask(full, backstress)
-                if inclusion.active:
-                    cells = inclusion.cells
-                    gx[cells] = inclusion.update(x[cells], stress[cells], step)
+                own = self._inclusion_part(ret, full, (x, stress, trial), step,
+                                           (equivalent, backstress), start_stress)
             scale = max(largest_magnitude(gx), largest_magnitude(x), strain_scale)
-            return Evaluation(gx, largest_magnitude(gx - x) / scale, (trial, full, ret))
+            return Evaluation(gx, largest_magnitude(gx - x) / scale, (trial, full, ret, own))
 
         def jacobian(x: np.ndarray, ev: Evaluation) -> LinearOperator:
             """``I − T (A + 2μ)``: ``T`` the return's algorithmic tangent, ``A`` residual stress."""
@@ -182,7 +187,7 @@ class PlasticFixedPoint:
                 operator: LinearOperator = difference_jacobian(
                     evaluate, x, ev, FD_STEP, max(float(np.abs(x).max()), strain_scale))
                 return operator
-            trial, full, _ = ev.data
+            trial, full = ev.data[:2]
             tangent = self._tangent(trial, full, equivalent, backstress)
 
             def matvec(v: np.ndarray) -> np.ndarray:
@@ -215,10 +220,42 @@ class PlasticFixedPoint:
             raise ConvergenceError(what, step=step, residual=exc.residual,
                                    tolerance=opts.plasticity_tolerance,
                                    iterations=exc.iterations) from None
-        ret = out.evaluation.data[2]
+        ret, own = out.evaluation.data[2:]
         dx = out.x if coupled else ret.plastic_strain_increment
         return PlasticUpdate(dx, ret.equivalent_plastic_strain_increment, applications,
-                             out.evaluation.residual, ret.backstress)
+                             out.evaluation.residual, ret.backstress, own)
+
+    def _inclusion_part(self, ret: ReturnResult, full: ReturnResult,
+                        fields: tuple[np.ndarray, np.ndarray, np.ndarray], step: int,
+                        state: tuple[np.ndarray, np.ndarray | None],
+                        start_stress: np.ndarray | None) -> np.ndarray | None:
+        """``G`` in the inhomogeneities' cells, in ``ret`` (in place); their Δεp if they harden.
+
+        ``fields`` are the iterate ``x``, its stress σ and the trial stress ``σ + 2μ x``;
+        ``state`` p and X before the increment. The body's return is masked there; those with
+        a law of their own return with it (:mod:`sacflow.solver.own_hardening`); where they
+        carry ε*, ``G`` is the Krylov-corrected ε* (plus their own Δεp, returned as (m, 6):
+        None without own hardening).
+        """
+        inclusion = self.inclusion
+        assert inclusion is not None
+        x, stress, trial = fields
+        self._mask(ret, state[1])
+        if full is not ret:
+            self._mask(full, state[1])
+        own = inclusion.own
+        if own is not None:
+            extrapolated = self.settings.return_integration == "extrapolated"
+            own.apply(ret, x, stress, trial, state, start_stress if extrapolated else None)
+        if not inclusion.active:
+            return None
+        cells, gx = inclusion.cells, ret.plastic_strain_increment
+        if own is None:
+            gx[cells] = inclusion.update(x[cells], stress[cells], step)
+            return None
+        plastic: np.ndarray = gx[cells]  # Δεp of the ε* cells (zero where elastic): a copy
+        gx[cells] = plastic + inclusion.update(x[cells] - plastic, stress[cells], step)
+        return plastic
 
     def _mask(self, ret: ReturnResult, backstress: np.ndarray | None) -> None:
         """No plastic flow in the cells of the elastic inhomogeneities (in place)."""

@@ -21,7 +21,9 @@ Eshelby tensor) is well conditioned for every modulus ratio, where ``ε* − ΔS
 ``E_k → 0``.
 
 The solver's fixed point carries ε* in the inhomogeneous cells of its iterate (where the
-plastic strain increment is zero: the inhomogeneities are elastic). Each evaluation gives the
+plastic strain increment is zero when the inhomogeneity is elastic; with a hardening law of its
+own the iterate there is ``Δεp + ε*``, :mod:`sacflow.solver.own_hardening`). Each evaluation
+gives the
 total stress with the full operator; :meth:`EquivalentInclusion.update` then returns the
 Newton-like correction ``ε* + δ`` with ``(C_k − (I − C_k S) R_s) δ = −F(ε*)``, ``R_s`` the
 eigenstrain operator on a sub-box around the inhomogeneities (lateral bounding box plus
@@ -42,6 +44,7 @@ from sacflow.errors import ConvergenceError
 from sacflow.kernels.cuboid import stiffness_matrix
 from sacflow.kernels.eigenstrain import HalfSpaceEigenstrain
 from sacflow.solver.inputs import Inhomogeneity, SolverInputs, SolverSettings
+from sacflow.solver.own_hardening import OwnHardening, own_hardening
 from sacflow.solver.phase import phase_field
 from sacflow.solver.state import GridCoords
 
@@ -77,11 +80,15 @@ class EquivalentInclusion:
         ``inclusion_tolerance`` (relative GMRES residual) and ``inclusion_max_iterations``.
     threads : int or None
         FFT threads of the sub-box operator.
+    own : OwnHardening or None
+        The return of the inhomogeneities with a hardening law of their own (None: all
+        elastic).
 
     Attributes
     ----------
     elastic : ndarray of bool (n1, n2, nz)
-        The cells of every inhomogeneity: no plastic flow there.
+        The cells of every inhomogeneity: no plastic flow of the matrix's law there (those of
+        an inhomogeneity with its own hardening return with it, :attr:`own`).
     cells : tuple of ndarray
         Indices of the cells carrying an equivalent eigenstrain: those of the inhomogeneities
         whose moduli differ from the matrix's (one with the matrix's is the matrix: ε* = 0).
@@ -91,8 +98,9 @@ class EquivalentInclusion:
 
     def __init__(self, phase: np.ndarray, inhomogeneities: Sequence[Inhomogeneity], E: float,
                  nu: float, spacing: tuple[float, float, float], settings: SolverSettings,
-                 threads: int | None) -> None:
+                 threads: int | None, own: OwnHardening | None = None) -> None:
         self.phase = phase
+        self.own = own
         self.elastic = phase > 0
         self.settings = settings
         self.iterations = 0
@@ -215,11 +223,22 @@ class EquivalentInclusion:
 
 
 def inclusion_for(inputs: SolverInputs, coords: GridCoords) -> EquivalentInclusion | None:
-    """Return the equivalent inclusion of the inputs' inhomogeneities on ``coords``, or None."""
+    """Return the equivalent inclusion of the inputs' inhomogeneities on ``coords``, or None.
+
+    Raises
+    ------
+    ValueError
+        When an inhomogeneity has a hardening law of its own in an elastic body (whose run
+        keeps no plastic state: the case schema refuses it too).
+    """
     if not inputs.inhomogeneities:
         return None
     phase = phase_field(inputs.inhomogeneities, coords.x1, coords.x2, coords.x3)
     material, settings = inputs.material, inputs.settings
     dz = inputs.grid.depth / inputs.grid.nz
+    own = own_hardening(phase, inputs.inhomogeneities, material.E, material.nu, coords.x3)
+    if own is not None and not material.plastic:
+        raise ValueError("an inhomogeneity's own hardening needs a plastic body (an elastic "
+                         "body keeps no plastic state): give the body a plastic law")
     return EquivalentInclusion(phase, inputs.inhomogeneities, material.E, material.nu,
-                               (*inputs.grid.cell, dz), settings, settings.fft_threads)
+                               (*inputs.grid.cell, dz), settings, settings.fft_threads, own)

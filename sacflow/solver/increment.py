@@ -19,10 +19,11 @@ applications: ``benchmarks/elastic_plastic.py`` prints both counts). At converge
 two criteria hold: the plastic strain increment and the residual displacement increment have
 stopped changing, and von Mises = σ_Y on plastic points.
 
-Elastic inhomogeneities (:mod:`sacflow.solver.inclusion`): the iterate carries their equivalent
-eigenstrain ε* in their cells (where the plastic strain does not flow), so that the residual
-stress and the residual surface displacement the fixed point applies, and the contact's gap,
-are those of ``εp + ε*``; an elastic body with inhomogeneities runs the same fixed point.
+Inhomogeneities (:mod:`sacflow.solver.inclusion`): the iterate carries their equivalent
+eigenstrain ε* in their cells (where the plastic strain does not flow, or, with a hardening law
+of their own, ``Δεp + ε*``: :mod:`sacflow.solver.own_hardening`), so that the residual stress
+and the residual surface displacement the fixed point applies, and the contact's gap, are those
+of ``εp + ε*``; an elastic body with inhomogeneities runs the same fixed point.
 """
 
 from __future__ import annotations
@@ -202,7 +203,12 @@ class IncrementSolver:
         if inclusion is not None:  # the iterate's ε* out of the plastic strain increment
             eps_star = plastic_strain[inclusion.cells]
             plastic_strain = plastic_strain.copy()
-            plastic_strain[inclusion.cells] = 0.0
+            own = update.inclusion_plastic_strain  # Δεp there, with own hardening
+            if own is None:
+                plastic_strain[inclusion.cells] = 0.0
+            else:
+                eps_star -= own
+                plastic_strain[inclusion.cells] = own
             iterations = inclusion.iterations
         return Increment(sl, geometry, result,
                          (plastic_strain, update.equivalent_plastic_strain),
@@ -364,7 +370,8 @@ class IncrementSolver:
                                             self._state(body), start_stress=start_stress)
             x, dp = update.plastic_strain, update.equivalent_plastic_strain
             applications += update.applications
-            total = PlasticUpdate(x, dp, applications, update.residual, update.backstress)
+            total = PlasticUpdate(x, dp, applications, update.residual, update.backstress,
+                                  update.inclusion_plastic_strain)
             if not dp.any() and self.inclusion is None:
                 return result, total, 0.0
             u_new = ops.eigenstrain.residual_displacement(body.plastic_strain + x)

@@ -129,7 +129,7 @@ InhomogeneityShape = Literal["sphere", "ellipsoid", "cuboid", "cells"]
 
 @dataclass(frozen=True)
 class Inhomogeneity:
-    """An elastic inhomogeneity of body 1: a region with its own elastic constants.
+    """An inhomogeneity of body 1: a region with its own elastic constants (and hardening).
 
     Solved by Eshelby's equivalent inclusion method on the body's eigenstrain operators
     (Mura, *Micromechanics of Defects in Solids*, §22): the region's cells carry an equivalent
@@ -150,6 +150,11 @@ class Inhomogeneity:
     cells : ndarray or None
         For ``cells``: the centres (x1, x2, x3) [m] of the region's cells, shape (k, 3); each
         point marks the body cell that contains it.
+    law : HardeningLaw or None
+        Its own isotropic hardening law; None: it stays elastic
+        (:mod:`sacflow.solver.own_hardening`).
+    kinematic : KinematicLaw or None
+        The backstress law of its own hardening, or None.
     """
 
     shape: InhomogeneityShape
@@ -158,6 +163,8 @@ class Inhomogeneity:
     E: float
     nu: float
     cells: np.ndarray | None = None
+    law: HardeningLaw | None = None
+    kinematic: KinematicLaw | None = None
 
 
 @dataclass(frozen=True)

@@ -65,6 +65,10 @@ class StateBuilder:
             yield_stress = (self.material.law.yield_stress(equivalent, self.coords.x3)
                             if self.material.plastic else np.full(equivalent.shape, np.inf))
             out["yield_stress"] = np.asarray(yield_stress, dtype=float)
+            inclusion = self.increments.fixed_point.inclusion
+            if inclusion is not None and inclusion.own is not None:  # their own laws
+                out["yield_stress"] = out["yield_stress"].copy()
+                inclusion.own.yield_stress(equivalent, out["yield_stress"])
         out["plastic_strain"] = body.plastic_strain.copy()
         out["equivalent_plastic_strain"] = equivalent.copy()
         if body.backstress is not None:
