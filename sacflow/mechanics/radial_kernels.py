@@ -1,20 +1,23 @@
-r"""Compiled row loops of the radial return: deviator scatters and the Swift consistency root.
+r"""Compiled loops of the radial return: deviator scatters, Δp, and the step-doubled return.
 
 The radial return (:func:`~sacflow.mechanics.return_mapping.isotropic_return`) and its
 step-doubled form (:mod:`sacflow.mechanics.return_extrapolation`) are sequences of short
 per-tensor formulas over the plastic points of a cuboid box (half of it in a strongly plastic
-step): the deviator s = σ − tr(σ)/3 I, a scaling of it, a sum with another tensor, and the von
-Mises norm q = sqrt(3/2 s:s) of the result. Through numpy each is one or more passes over
-(m, 6) arrays with a temporary each, plus a gather and a scatter by fancy indexing; the loops
-here read each tensor once and write each result once. The arithmetic is that of
-:func:`~sacflow.mechanics.stress_measures.deviator` and
-:func:`~sacflow.mechanics.stress_measures.equivalent_stress` (tensor shear components, counted
-twice in s:s).
+step): the deviator s = σ − tr(σ)/3 I, a scaling of it, a sum with another tensor, the von Mises
+norm q = sqrt(3/2 s:s) of the result, and one scalar equation per point for Δp,
+r(Δp) = q − 3μΔp − σ_Y(p₀ + Δp) = 0. Through numpy each is one or more passes over (m, 6)
+arrays with a temporary each, a gather and a scatter by fancy indexing, and a dozen array passes
+per Newton update; the loops here read each tensor once and write each result once, and solve
+Δp in registers. The arithmetic is that of :func:`~sacflow.mechanics.stress_measures.deviator`
+and :func:`~sacflow.mechanics.stress_measures.equivalent_stress` (tensor shear components,
+counted twice in s:s) and of the return mapping's safeguarded Newton iteration
+(:func:`~sacflow.mechanics.return_mapping.newton_in_bracket`: same start, bracket, stopping rule
+and last correction).
 
-:func:`swift_increments` solves the consistency equation of the radial return for the Swift law
-σ_Y = B (C + s p)^n (seed eq. (3.1)) point by point with the safeguarded Newton iteration of
-:func:`~sacflow.mechanics.return_mapping.newton_in_bracket` (same start, bracket, stopping rule
-and last correction), in registers instead of a dozen array passes per Newton step.
+The laws evaluated in compiled code (:func:`compiled_law`) are linear hardening, perfect
+plasticity (where Δp has a closed form) and the Swift law σ_Y = B (C + s p)^n (seed eq. (3.1));
+the others (tabular, depth-scaled) keep the array code. :func:`step_doubled_points` is the whole
+step-doubled return of one point (three radial returns and the extrapolation) in one loop.
 
 numba compiles each loop at its first call (cached on disk): elastic runs do without it.
 """
@@ -25,22 +28,48 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["extrapolated_trials", "midpoint_trials", "returned_into", "scaled_deviators_into",
-           "scatter_corrected", "second_trials", "swift_increments"]
+from sacflow.mechanics.hardening import (
+    HardeningLaw,
+    LinearHardening,
+    PerfectPlasticity,
+    SwiftHardening,
+)
+
+__all__ = ["LINEAR", "SWIFT", "compiled_law", "returned_into",
+           "scaled_deviators_into", "step_doubled_points"]
 
 FloatArray = NDArray[np.float64]
 IndexArray = NDArray[np.intp]
 
 #: Rounding floor factor of the consistency residual (as in the return mapping): 4 ulp.
 EPS4 = 4.0 * np.finfo(float).eps
+#: Law codes of the compiled loops: σ_Y = σ_Y0 + H p (parameters σ_Y0, H) and the Swift law
+#: σ_Y = B (C + s p)^n (parameters B, C, n, s).
+LINEAR, SWIFT = 0, 1
 
 
-@numba.njit(nogil=True, cache=True, boundscheck=False)
+def compiled_law(law: HardeningLaw) -> tuple[int, FloatArray] | None:
+    """Return the code and parameters of a law the compiled loops evaluate, or None.
+
+    Linear hardening, perfect plasticity (H = 0) and the Swift law; any other law (tabular,
+    depth-scaled, user-defined) is left to the array code.
+    """
+    kind = type(law)
+    if kind is LinearHardening or kind is PerfectPlasticity:
+        assert isinstance(law, LinearHardening)
+        return LINEAR, np.array([law.initial_yield_stress, law.modulus, 0.0, 0.0])
+    if kind is SwiftHardening:
+        assert isinstance(law, SwiftHardening)
+        return SWIFT, np.array([law.B, law.C, law.n, law.scale])
+    return None
+
+
+@numba.njit(nogil=True, cache=True, boundscheck=False, error_model="numpy")
 def _mean(t: FloatArray) -> float:  # pragma: no cover - compiled
     return float((t[0] + t[1] + t[2]) / 3.0)
 
 
-@numba.njit(nogil=True, cache=True, boundscheck=False)
+@numba.njit(nogil=True, cache=True, boundscheck=False, error_model="numpy")
 def _norm(s0: float, s1: float, s2: float, t3: float, t4: float,
           t5: float) -> float:  # pragma: no cover - compiled
     """Return q = sqrt(3/2 s:s) of the deviator (s0, s1, s2), tensor shears (t3, t4, t5)."""
@@ -48,7 +77,7 @@ def _norm(s0: float, s1: float, s2: float, t3: float, t4: float,
                                 + 2.0 * (t3 * t3 + t4 * t4 + t5 * t5))))
 
 
-@numba.njit(nogil=True, cache=True, boundscheck=False)
+@numba.njit(nogil=True, cache=True, boundscheck=False, error_model="numpy")
 def scaled_deviators_into(stress: FloatArray, idx: IndexArray, factor: FloatArray,
                           out: FloatArray) -> None:  # pragma: no cover - compiled
     """Set ``out[idx[k]] = factor[k] · dev(stress[idx[k]])`` for every k (rows of (n, 6)).
@@ -65,7 +94,7 @@ def scaled_deviators_into(stress: FloatArray, idx: IndexArray, factor: FloatArra
             out[i, j] = f * stress[i, j]
 
 
-@numba.njit(nogil=True, cache=True, boundscheck=False)
+@numba.njit(nogil=True, cache=True, boundscheck=False, error_model="numpy")
 def returned_into(stress: FloatArray, idx: IndexArray, ratio: FloatArray,
                   out: FloatArray) -> None:  # pragma: no cover - compiled
     """Set ``out[idx[k]] = mean(σ) I + ratio[k] · dev(σ)``, σ = ``stress[idx[k]]``.
@@ -82,146 +111,114 @@ def returned_into(stress: FloatArray, idx: IndexArray, ratio: FloatArray,
             out[i, j] = r * stress[i, j]
 
 
-@numba.njit(nogil=True, cache=True, boundscheck=False)
-def midpoint_trials(start: FloatArray, trial: FloatArray,
-                    idx: IndexArray) -> tuple[FloatArray, FloatArray]:  # pragma: no cover
-    """Return the first half step's trial σ_n + ½ (σ_tr − σ_n) at ``idx``, and its q."""
-    m = idx.size
-    mid = np.empty((m, 6))
-    q = np.empty(m)
-    for k in range(m):
-        i = idx[k]
-        for j in range(6):
-            mid[k, j] = start[i, j] + 0.5 * (trial[i, j] - start[i, j])
-        mean = _mean(mid[k])
-        q[k] = _norm(mid[k, 0] - mean, mid[k, 1] - mean, mid[k, 2] - mean,
-                     mid[k, 3], mid[k, 4], mid[k, 5])
-    return mid, q
+@numba.njit(nogil=True, cache=True, boundscheck=False, error_model="numpy")
+def _yield_and_slope(kind: int, prm: FloatArray,
+                     p: float) -> tuple[float, float]:  # pragma: no cover - compiled
+    """σ_Y(p) and dσ_Y/dp of the law ``kind`` with parameters ``prm`` (:func:`compiled_law`)."""
+    if kind == LINEAR:
+        return prm[0] + prm[1] * p, prm[1]
+    base = prm[1] + prm[3] * p
+    y = prm[0] * base ** prm[2]
+    return y, prm[2] * prm[3] * y / base
 
 
-@numba.njit(nogil=True, cache=True, boundscheck=False)
-def second_trials(mid: FloatArray, ratio: FloatArray, factor: FloatArray, start: FloatArray,
-                  trial: FloatArray, idx: IndexArray
-                  ) -> tuple[FloatArray, FloatArray, FloatArray]:  # pragma: no cover
-    """Return the second half's trial, the first half's plastic strain increment, its q.
+@numba.njit(nogil=True, cache=True, boundscheck=False, error_model="numpy")
+def _radial_dp(kind: int, prm: FloatArray, q: float, p0: float, three_mu: float, tol: float,
+               max_iter: int) -> tuple[float, int, bool]:  # pragma: no cover - compiled
+    """Δp of one radial return of trial norm ``q`` from p₀: (Δp, updates, converged).
 
-    ``mid`` is the first half's trial, ``ratio`` σ_Y(p + Δp₁)/q (1 where elastic) and
-    ``factor`` 3/2 Δp₁/q (0 where elastic): the returned stress is mean + ratio · s and the
-    increment factor · s; the second trial adds the other half, ½ (σ_tr − σ_n).
+    Δp = 0 at or below the yield surface; the closed form (q − σ_Y(p₀))/(3μ + H) for linear
+    hardening; otherwise the safeguarded Newton iteration of
+    :func:`~sacflow.mechanics.return_mapping.newton_in_bracket` (start at the bracket's upper
+    end (q − σ_Y(p₀))/(3μ), keep the bracket where r changes sign, bisect when a step leaves it,
+    stop when |r| <= max(tol σ_Y, 4 ulp of the larger of q and H (p₀ + Δp)) or the bracket is
+    round-off wide, and keep a last Newton correction if it lies in the bracket).
     """
-    m = idx.size
-    second = np.empty((m, 6))
-    strain = np.empty((m, 6))
-    q = np.empty(m)
-    for k in range(m):
-        i = idx[k]
-        mean = _mean(mid[k])
-        for j in range(6):
-            s = mid[k, j] - mean if j < 3 else mid[k, j]
-            strain[k, j] = factor[k] * s
-            returned = ratio[k] * s + (mean if j < 3 else 0.0)
-            second[k, j] = returned + 0.5 * (trial[i, j] - start[i, j])
-        mean2 = _mean(second[k])
-        q[k] = _norm(second[k, 0] - mean2, second[k, 1] - mean2, second[k, 2] - mean2,
-                     second[k, 3], second[k, 4], second[k, 5])
-    return second, strain, q
+    y0, h0 = _yield_and_slope(kind, prm, p0)
+    if not q > y0:
+        return 0.0, 0, True
+    if kind == LINEAR:
+        return (q - y0) / (three_mu + h0), 1, True
+    lo = 0.0
+    hi = (q - y0) / three_mu
+    x = hi
+    for it in range(max_iter + 1):
+        y, h = _yield_and_slope(kind, prm, p0 + x)
+        r = q - three_mu * x - y
+        slope = three_mu + h
+        if r > 0.0:
+            lo = x
+        else:
+            hi = x
+        if abs(r) <= max(tol * y, EPS4 * max(q, h * (p0 + x))) or hi - lo <= EPS4 * x:
+            xn = x + r / slope
+            return (xn if lo <= xn <= hi else x), it, True
+        xn = x + r / slope
+        x = xn if lo < xn < hi else 0.5 * (lo + hi)
+    return x, max_iter, False
 
 
-@numba.njit(nogil=True, cache=True, boundscheck=False)
-def extrapolated_trials(second: FloatArray, factor: FloatArray, first_strain: FloatArray,
-                        full_strain: FloatArray, trial: FloatArray, idx: IndexArray,
-                        two_mu: float, w_half: float, w_full: float
-                        ) -> tuple[FloatArray, FloatArray, FloatArray]:  # pragma: no cover
-    """Return w_half (Δεp₁ + Δεp₂) + w_full Δεp_F (extrapolated), its drift trial, its q.
+@numba.njit(nogil=True, cache=True, boundscheck=False, error_model="numpy")
+def _deviator_and_norm(t: FloatArray, s: FloatArray) -> tuple[float, float]:  # pragma: no cover
+    """Write dev(t) into ``s``; return mean(t) and q = sqrt(3/2 s:s)."""
+    mean = _mean(t)
+    for j in range(3):
+        s[j] = t[j] - mean
+    for j in range(3, 6):
+        s[j] = t[j]
+    return mean, _norm(s[0], s[1], s[2], s[3], s[4], s[5])
 
-    ``factor`` is the second half's 3/2 Δp₂/q (0 where elastic), ``full_strain`` the box of
-    one-step increments; the drift-correction trial is σ_tr − 2μ Δεp (extrapolated).
+
+@numba.njit(nogil=True, cache=True, boundscheck=False, error_model="numpy")
+def step_doubled_points(kind: int, prm: FloatArray, start: FloatArray, trial: FloatArray,
+                        p_all: FloatArray, idx: IndexArray, strain_all: FloatArray,
+                        dp_all: FloatArray, two_mu: float, w_half: float, w_full: float,
+                        tol: float, max_iter: int) -> tuple[int, int]:  # pragma: no cover
+    """Step-doubled radial return at the points ``idx``, in place of their one-step increments.
+
+    Per point, with h = ½ (σ_tr − σ_n): the first half returns σ_n + h from p₀ (Δp₁, Δεp₁,
+    returned stress mean + s σ_Y(p₀ + Δp₁)/q), the second half that stress + h from p₀ + Δp₁
+    (Δp₂, Δεp₂); the increment w_half (Δεp₁ + Δεp₂) + w_full Δεp_F (Δεp_F the one-step
+    increment in ``strain_all``) and Δp likewise, kept ≥ 0; then one drift-correcting return of
+    σ_tr − 2μ Δεp from p₀ + Δp (:mod:`sacflow.mechanics.return_extrapolation`). The results
+    replace ``strain_all[idx]`` and ``dp_all[idx]``. Returns the updates of the slowest
+    Newton iteration and the number of points where one did not converge.
     """
-    m = idx.size
-    strain = np.empty((m, 6))
-    corrected = np.empty((m, 6))
-    q = np.empty(m)
-    for k in range(m):
-        i = idx[k]
-        mean = _mean(second[k])
-        for j in range(6):
-            s = second[k, j] - mean if j < 3 else second[k, j]
-            e = w_half * (first_strain[k, j] + factor[k] * s) + w_full * full_strain[i, j]
-            strain[k, j] = e
-            corrected[k, j] = trial[i, j] - two_mu * e
-        mean3 = _mean(corrected[k])
-        q[k] = _norm(corrected[k, 0] - mean3, corrected[k, 1] - mean3,
-                     corrected[k, 2] - mean3, corrected[k, 3], corrected[k, 4],
-                     corrected[k, 5])
-    return strain, corrected, q
-
-
-@numba.njit(nogil=True, cache=True, boundscheck=False)
-def scatter_corrected(strain: FloatArray, corrected: FloatArray, factor: FloatArray,
-                      idx: IndexArray, out: FloatArray) -> None:  # pragma: no cover
-    """Set ``out[idx[k]] = strain[k] + factor[k] · dev(corrected[k])`` (drift-corrected)."""
-    for k in range(idx.size):
-        i = idx[k]
-        mean = _mean(corrected[k])
-        f = factor[k]
-        for j in range(3):
-            out[i, j] = strain[k, j] + f * (corrected[k, j] - mean)
-        for j in range(3, 6):
-            out[i, j] = strain[k, j] + f * corrected[k, j]
-
-
-@numba.njit(nogil=True, cache=True, boundscheck=False)
-def swift_increments(q: FloatArray, p0: FloatArray, B: float, C: float, n: float,
-                     scale: float, three_mu: float, tol: float,
-                     max_iter: int) -> tuple[FloatArray, int, int]:  # pragma: no cover
-    """Return Δp solving q − 3μΔp − B (C + s (p₀ + Δp))^n = 0 at each (plastic) point.
-
-    The safeguarded Newton iteration of
-    :func:`~sacflow.mechanics.return_mapping.newton_in_bracket`, point by point: start at the
-    bracket's upper end (q − σ_Y(p₀))/(3μ), keep the bracket [lo, hi] where r changes sign,
-    bisect when a Newton step leaves it, stop when |r| <= max(tol σ_Y, 4 ulp of the larger of
-    q and H (p₀ + Δp)) or the bracket is round-off wide, and keep a last Newton correction if
-    it lies in the bracket.
-
-    Returns
-    -------
-    dp : ndarray
-        Δp at each point.
-    iterations : int
-        Updates of the slowest point.
-    failed : int
-        Points not converged after ``max_iter`` updates (the caller raises).
-    """
-    m = q.size
-    dp = np.empty(m)
+    three_mu = 1.5 * two_mu
     iterations = 0
     failed = 0
-    for k in range(m):
-        lo = 0.0
-        hi = (q[k] - B * (C + scale * p0[k]) ** n) / three_mu
-        x = hi
-        done = False
-        for it in range(max_iter + 1):
-            base = C + scale * (p0[k] + x)
-            y = B * base ** n
-            h = n * scale * y / base
-            r = q[k] - three_mu * x - y
-            slope = three_mu + h
-            if r > 0.0:
-                lo = x
-            else:
-                hi = x
-            floor = EPS4 * max(q[k], h * (p0[k] + x))
-            if abs(r) <= max(tol * y, floor) or hi - lo <= EPS4 * x:
-                xn = x + r / slope
-                dp[k] = xn if lo <= xn <= hi else x
-                iterations = max(iterations, it)
-                done = True
-                break
-            xn = x + r / slope
-            x = xn if lo < xn < hi else 0.5 * (lo + hi)
-        if not done:
-            dp[k] = x
-            failed += 1
-            iterations = max_iter
-    return dp, iterations, failed
+    half = np.empty(6)
+    point = np.empty(6)
+    s = np.empty(6)
+    strain = np.empty(6)
+    for k in range(idx.size):
+        i = idx[k]
+        p0 = p_all[i]
+        for j in range(6):
+            half[j] = 0.5 * (trial[i, j] - start[i, j])
+            point[j] = start[i, j] + half[j]
+        mean, q = _deviator_and_norm(point, s)
+        dp1, it1, ok1 = _radial_dp(kind, prm, q, p0, three_mu, tol, max_iter)
+        ratio, factor = 1.0, 0.0
+        if dp1 > 0.0:
+            ratio = _yield_and_slope(kind, prm, p0 + dp1)[0] / q
+            factor = 1.5 * dp1 / q
+        for j in range(6):
+            strain[j] = w_half * factor * s[j]
+            point[j] = ratio * s[j] + (mean if j < 3 else 0.0) + half[j]
+        mean, q = _deviator_and_norm(point, s)
+        dp2, it2, ok2 = _radial_dp(kind, prm, q, p0 + dp1, three_mu, tol, max_iter)
+        factor = 1.5 * dp2 / q if dp2 > 0.0 else 0.0
+        for j in range(6):
+            strain[j] += w_half * factor * s[j] + w_full * strain_all[i, j]
+            point[j] = trial[i, j] - two_mu * strain[j]
+        dp = max(w_half * (dp1 + dp2) + w_full * dp_all[i], 0.0)
+        mean, q = _deviator_and_norm(point, s)
+        dp3, it3, ok3 = _radial_dp(kind, prm, q, p0 + dp, three_mu, tol, max_iter)
+        factor = 1.5 * dp3 / q if dp3 > 0.0 else 0.0
+        for j in range(6):
+            strain_all[i, j] = strain[j] + factor * s[j]
+        dp_all[i] = dp + dp3
+        iterations = max(iterations, it1, it2, it3)
+        failed += 0 if (ok1 and ok2 and ok3) else 1
+    return iterations, failed

@@ -35,7 +35,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from sacflow.mechanics.hardening import HardeningLaw, KinematicLaw
-from sacflow.mechanics.return_mapping import ReturnResult, radial_increments, return_map
+from sacflow.mechanics.return_mapping import (
+    MAX_ITERATIONS,
+    TOLERANCE,
+    ReturnMappingError,
+    ReturnResult,
+    return_map,
+)
 
 __all__ = ["RICHARDSON_WEIGHTS", "extrapolated_return"]
 
@@ -77,6 +83,8 @@ def extrapolated_return(start_stress: FloatArray, trial_stress: FloatArray,
         ≥ 0, backstress with kinematic hardening); ``stress`` is None; ``plastic`` the one-step
         return's points (a point elastic over the full step is elastic over both halves).
     """
+    from sacflow.mechanics.radial_kernels import compiled_law, step_doubled_points  # numba
+
     with_backstress = kinematic is not None
     if full is None:
         full = return_map(trial_stress, equivalent_plastic_strain, law, mu, depth,
@@ -87,14 +95,25 @@ def extrapolated_return(start_stress: FloatArray, trial_stress: FloatArray,
     if idx.size == 0:
         return full
     lead = plastic.shape
+    if kinematic is None:
+        compiled = compiled_law(law)
+        if compiled is not None:  # the whole step doubling per point, in one compiled loop
+            iterations, failed = step_doubled_points(
+                compiled[0], compiled[1], np.ascontiguousarray(start_stress.reshape(-1, 6)),
+                np.ascontiguousarray(trial_stress.reshape(-1, 6)),
+                np.ascontiguousarray(np.broadcast_to(equivalent_plastic_strain, lead)
+                                     .reshape(-1), dtype=float),
+                idx, full.plastic_strain_increment.reshape(-1, 6),
+                full.equivalent_plastic_strain_increment.reshape(-1), 2.0 * mu,
+                *RICHARDSON_WEIGHTS, TOLERANCE, MAX_ITERATIONS)
+            if failed:
+                raise ReturnMappingError(f"step-doubled return: {failed} points not converged "
+                                         f"after {MAX_ITERATIONS} iterations")
+            return ReturnResult(None, full.plastic_strain_increment,
+                                full.equivalent_plastic_strain_increment, plastic,
+                                max(full.iterations, iterations))
     d_pl = _gathered_depth(depth, idx, lead)
     p_pl = np.broadcast_to(equivalent_plastic_strain, lead).reshape(-1)[idx]
-    if kinematic is None:
-        iterations = _radial_step_doubling(start_stress, trial_stress, p_pl, d_pl, idx, law,
-                                           mu, full)
-        return ReturnResult(None, full.plastic_strain_increment,
-                            full.equivalent_plastic_strain_increment, plastic,
-                            max(full.iterations, iterations))
     x_pl = None if backstress is None else backstress.reshape(-1, 6)[idx]
     start = start_stress.reshape(-1, 6)[idx]
     trial = trial_stress.reshape(-1, 6)[idx]
@@ -133,68 +152,6 @@ def extrapolated_return(start_stress: FloatArray, trial_stress: FloatArray,
     return ReturnResult(None, full.plastic_strain_increment,
                         full.equivalent_plastic_strain_increment, plastic, iterations,
                         full.backstress)
-
-
-def _radial_step_doubling(start_stress: FloatArray, trial_stress: FloatArray,
-                          p_pl: FloatArray, d_pl: FloatArray | None, idx: NDArray[np.intp],
-                          law: HardeningLaw, mu: float, full: ReturnResult) -> int:
-    """Step-double the isotropic (radial) case of :func:`extrapolated_return` in ``full``.
-
-    The same three returns at the points ``idx`` (first half, second half, drift correction),
-    each a radial return whose only scalar unknown Δp is solved by
-    :func:`~sacflow.mechanics.return_mapping.radial_increments`; the tensor work between them
-    (trials, deviators, the extrapolation, the scatter into the box) is done by the compiled
-    row loops of :mod:`sacflow.mechanics.radial_kernels`, without box-size temporaries.
-    Returns the Newton updates of the slowest point over the three returns.
-    """
-    from sacflow.mechanics.radial_kernels import (  # numba: plastic runs only
-        extrapolated_trials,
-        midpoint_trials,
-        scatter_corrected,
-        second_trials,
-    )
-
-    start = np.ascontiguousarray(start_stress.reshape(-1, 6))
-    trial = np.ascontiguousarray(trial_stress.reshape(-1, 6))
-    strain_all = full.plastic_strain_increment.reshape(-1, 6)
-    equivalent_all = full.equivalent_plastic_strain_increment.reshape(-1)
-    w_half, w_full = RICHARDSON_WEIGHTS
-    three_mu = 3.0 * mu
-    mid, q_mid = midpoint_trials(start, trial, idx)
-    dp1, ratio1, factor1, it1 = _radial_half(q_mid, p_pl, d_pl, law, three_mu)
-    second, first_strain, q_second = second_trials(mid, ratio1, factor1, start, trial, idx)
-    p_first = p_pl + dp1
-    dp2, _, factor2, it2 = _radial_half(q_second, p_first, d_pl, law, three_mu)
-    equivalent = np.maximum(w_half * (dp1 + dp2) + w_full * equivalent_all[idx], 0.0)
-    strain, corrected, q_corrected = extrapolated_trials(
-        second, factor2, first_strain, strain_all, trial, idx, 2.0 * mu, w_half, w_full)
-    dp3, _, factor3, it3 = _radial_half(q_corrected, p_pl + equivalent, d_pl, law, three_mu)
-    scatter_corrected(strain, corrected, factor3, idx, strain_all)
-    equivalent_all[idx] = equivalent + dp3
-    return max(it1, it2, it3)
-
-
-def _radial_half(q: FloatArray, p0: FloatArray, depth: FloatArray | None, law: HardeningLaw,
-                 three_mu: float) -> tuple[FloatArray, FloatArray, FloatArray, int]:
-    """Return-map points of trial norm ``q``: Δp, σ_Y(p₀ + Δp)/q, 3/2 Δp/q and the updates.
-
-    Points at or below the yield surface get Δp = 0, the ratio 1 and the factor 0 (their
-    stress is the trial one).
-    """
-    y0 = law.yield_stress(p0, depth)
-    plastic = np.flatnonzero(q > y0)
-    dp = np.zeros(q.shape)
-    ratio = np.ones(q.shape)
-    factor = np.zeros(q.shape)
-    if plastic.size == 0:
-        return dp, ratio, factor, 0
-    q_pl = q[plastic]
-    d_pl = None if depth is None else depth[plastic]
-    dp_pl, iterations = radial_increments(q_pl, p0[plastic], d_pl, law, three_mu)
-    dp[plastic] = dp_pl
-    ratio[plastic] = law.yield_stress(p0[plastic] + dp_pl, d_pl) / q_pl
-    factor[plastic] = 1.5 * dp_pl / q_pl
-    return dp, ratio, factor, iterations
 
 
 def _gathered_depth(depth: FloatArray | None, idx: NDArray[np.intp],

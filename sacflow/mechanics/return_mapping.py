@@ -54,7 +54,6 @@ from sacflow.mechanics.hardening import (
     KinematicLaw,
     LinearHardening,
     PerfectPlasticity,
-    SwiftHardening,
 )
 from sacflow.mechanics.stress_measures import (
     deviator,
@@ -328,10 +327,9 @@ def radial_increments(q: FloatArray, p0: FloatArray, depth: FloatArray | None,
     """Δp of the radial return at plastic points (q > σ_Y(p₀)): r = q − 3μΔp − σ_Y(p₀ + Δp).
 
     Linear hardening (and perfect plasticity) has the closed form Δp = (q − σ_Y(p₀))/(3μ + H),
-    which the Newton iteration of :func:`solve_consistency` reaches in its first update; the
-    Swift law is solved by the same iteration compiled point by point
-    (:func:`~sacflow.mechanics.radial_kernels.swift_increments`); any other law by
-    :func:`solve_consistency` on arrays.
+    which the Newton iteration of :func:`solve_consistency` reaches in its first update; any
+    other law is solved by :func:`solve_consistency` on arrays (vectorised: for the Swift law's
+    power, faster than a compiled point-by-point iteration).
 
     Returns
     -------
@@ -350,17 +348,6 @@ def radial_increments(q: FloatArray, p0: FloatArray, depth: FloatArray | None,
         assert isinstance(law, LinearHardening)
         dp: FloatArray = (q - law.yield_stress(p0)) / (three_mu + law.modulus)
         return dp, 1
-    if kind is SwiftHardening:
-        from sacflow.mechanics.radial_kernels import swift_increments  # numba
-
-        assert isinstance(law, SwiftHardening)
-        dp, iterations, failed = swift_increments(
-            np.ascontiguousarray(q), np.ascontiguousarray(p0, dtype=float), law.B, law.C,
-            law.n, law.scale, three_mu, tol, max_iter)
-        if failed:
-            raise ReturnMappingError(f"return mapping: {failed} points not converged after "
-                                     f"{max_iter} iterations (Swift law)")
-        return dp, iterations
     return solve_consistency(IsotropicConsistency(q, p0, depth, law, three_mu), tol, max_iter)
 
 
