@@ -29,6 +29,9 @@ from pathlib import Path
 
 import numpy as np
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import doc_number_groups_a as groups_a  # noqa: E402  (README.md, compare, dent study, inclusions)
+
 ROOT = Path(__file__).resolve().parents[1]
 TABLE = ROOT / "data" / "doc_numbers.csv"
 COLUMNS = ["key", "file", "quoted", "number", "unit", "scale", "value", "tolerance", "group",
@@ -364,6 +367,16 @@ GROUPS: dict[str, tuple[str, Callable[[Path], dict[str, float]]]] = {
     "convergence_study": ("fast", convergence_study),
     "dent_hydrostatic": ("fast", dent_hydrostatic),
     "eshelby_sphere": ("fast", eshelby_sphere),
+    "readme_cases": ("fast", groups_a.readme_cases),
+    "hertz_check_grids": ("fast", groups_a.hertz_check_grids),
+    "dent_study_setup": ("fast", groups_a.dent_study_setup),
+    "inclusion_setup": ("fast", groups_a.inclusion_setup),
+    "inclusion_hertz_runs": ("fast", groups_a.inclusion_hertz_runs),
+    "eshelby_iterations": ("fast", groups_a.eshelby_iterations),
+    "dent_study": ("slow", groups_a.dent_study),
+    "dent_vertical": ("slow", groups_a.dent_vertical),
+    "inclusion_campaign": ("slow", groups_a.inclusion_campaign),
+    "dent_rolling_inclusion": ("slow", groups_a.dent_rolling_inclusion),
 }
 
 
