@@ -100,6 +100,7 @@ def dent_study_setup(out: Path) -> dict[str, float]:
     base = "pipelines/dent-study-case.toml"
     numbers = {f"dent_study_p0_{w:.0f}": _case(base, (f"load_path.0.to={w}",)).hertz().p0
                for w in DENT_LOADS}
+    numbers["dent_rolling_p0"] = _case("configs/dent-rolling.toml").hertz().p0
     numbers["dent_study_hollow_cells"] = min(DENT_WIDTHS) / 2 / _case(base).cell_size()[0]
     for depth in DENT_DEPTHS:
         for width in DENT_WIDTHS:
@@ -134,6 +135,7 @@ def inclusion_setup(out: Path) -> dict[str, float]:
         "inclusion_hertz_cells_lateral": sphere.radius / case.cell_size()[0],
         "inclusion_hertz_cells_depth": sphere.radius / (case.grid.depth / case.grid.nz),
         "dent_inclusion_depth_over_a": dent.body.inhomogeneity[0].centre[2] / dent.hertz().a,
+        "dent_inclusion_p0": dent.hertz().p0,
         "inclusion_alumina_ratio": sphere.E / case.body.E,
         **_campaign_depths(hertz.a),
     }
@@ -221,6 +223,8 @@ DENT_COLUMNS = {"dang_van_max": "dv", "dang_van_ratio": "dv_ratio",
 def dent_study(out: Path) -> dict[str, float]:
     """``python pipelines/dent_study.py`` at its default size (minutes): docs/dent-study.md's
     table, smooth references and the ranges its text quotes."""
+    import json
+
     import xarray as xr
 
     from sacflow.studies.dent_study import case_metrics
@@ -235,8 +239,10 @@ def dent_study(out: Path) -> dict[str, float]:
                                                 float(ds["load"][i]))
         for name, suffix in DENT_COLUMNS.items():
             numbers[f"{stem}_{suffix}"] = float(ds[name][i])
+    manifest = json.loads((folder / "dent-study-smooth.manifest.json").read_text())
+    names = {r["parameters"]["load_path.0.to"]: r["name"] for r in manifest["cases"]}
     for load in DENT_LOADS:
-        name = f"dent-study-smooth-to{load:g}"
+        name = names[load]
         smooth = case_metrics(folder / f"{name}.nc", folder / "fatigue" / f"{name}-fatigue.nc")
         a = _case("pipelines/dent-study-case.toml", (f"load_path.0.to={load}",)).hertz().a
         numbers[f"dent_study_smooth_dv_{load:.0f}"] = smooth["dang_van_max"]
@@ -362,4 +368,44 @@ def dent_rolling_inclusion(out: Path) -> dict[str, float]:
                                               / numbers["dent_inclusion_sphere_eqps_without"])
     numbers["dent_inclusion_iterations"] = float(runs["with"]["inclusion_iterations"].sum())
     numbers["dent_inclusion_steps"] = float(runs["with"].sizes["step"])
+    return numbers
+
+
+def inclusion_benchmark(out: Path) -> dict[str, float]:
+    """``benchmarks/inclusion.py 64``'s results other than its times: one mild-hardening load
+    step at 64 × 64 × 32 with and without its alumina sphere (each step run three times)."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    import inclusion as benchmark
+
+    without, with_sphere = benchmark.one_step(64, False), benchmark.one_step(64, True)
+    return {
+        "inclusion_benchmark_cells": float(with_sphere["inhomogeneity"].split(", ")[1].split()[0]),
+        "inclusion_benchmark_applications_with": float(
+            with_sphere["residual_stress_applications"]),
+        "inclusion_benchmark_applications_without": float(
+            without["residual_stress_applications"]),
+        "inclusion_benchmark_gmres": float(with_sphere["inclusion_iterations"]),
+        "inclusion_benchmark_pressure_rise": (with_sphere["max_pressure_pa"]
+                                              / without["max_pressure_pa"] - 1.0),
+        "inclusion_benchmark_eqps_without": without["max_equivalent_plastic_strain"],
+        "inclusion_benchmark_eqps_with": with_sphere["max_equivalent_plastic_strain"],
+    }
+
+
+def dent_grid_change(out: Path) -> dict[str, float]:
+    """docs/dent-study.md: the middle-of-track Dang Van maximum of configs/dent-rolling.toml
+    (the study's seed dent at 2.5 GPa) at 32 × 32 × 12 and 40 × 40 × 14 cells, the runs of
+    ``record_doc_numbers.dent_fatigue`` (same names: reused from ``out``)."""
+    from sacflow.compare import fatigue
+
+    numbers = {}
+    for n, nz in ((32, 12), (40, 14)):
+        path = _run("configs/dent-rolling.toml", out, (
+            f"grid.nx={n}", f"grid.ny={n}", f"grid.nz={nz}", "output.volume_every=1",
+            f"name=dent-rolling-{n}"))
+        result = fatigue(path)
+        numbers[f"dent_grid_track_max_{n}"] = float(result["dang_van_track_max"])
+        numbers[f"dent_grid_track_max_x1_{n}"] = float(result["dang_van_track_max_x1"])
+    numbers["dent_grid_change"] = abs(numbers["dent_grid_track_max_40"]
+                                      / numbers["dent_grid_track_max_32"] - 1.0)
     return numbers

@@ -13,7 +13,11 @@ docs quote them: ``tests/test_doc_numbers.py`` fails while a quoted number and i
 
 Fast groups are closed forms, ``sacflow validate``'s Hertz numbers and runs of a few seconds;
 ``tests/test_doc_numbers.py`` recomputes them in the default suite and the slow ones with
-``-m slow``.
+``-m slow``. The groups of README.md, docs/compare.md, docs/dent-study.md and docs/inclusions.md
+are in ``pipelines/doc_number_groups_a.py``; numbers that are not computed (inputs, literature
+values, definitions, measurements) are rows of ``data/doc_inputs.csv`` instead
+(``tests/test_doc_inventory.py`` checks that every number of the docs is in one table or the
+other).
 """
 
 from __future__ import annotations
@@ -377,6 +381,8 @@ GROUPS: dict[str, tuple[str, Callable[[Path], dict[str, float]]]] = {
     "dent_vertical": ("slow", groups_a.dent_vertical),
     "inclusion_campaign": ("slow", groups_a.inclusion_campaign),
     "dent_rolling_inclusion": ("slow", groups_a.dent_rolling_inclusion),
+    "inclusion_benchmark": ("slow", groups_a.inclusion_benchmark),
+    "dent_grid_change": ("slow", groups_a.dent_grid_change),
 }
 
 
