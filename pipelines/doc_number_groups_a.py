@@ -239,6 +239,8 @@ def dent_study(out: Path) -> dict[str, float]:
                                                 float(ds["load"][i]))
         for name, suffix in DENT_COLUMNS.items():
             numbers[f"{stem}_{suffix}"] = float(ds[name][i])
+        # Symmetric about the track's centre line: the side of the maximum is round-off.
+        numbers[f"{stem}_lateral"] = abs(numbers[f"{stem}_lateral"])
     manifest = json.loads((folder / "dent-study-smooth.manifest.json").read_text())
     names = {r["parameters"]["load_path.0.to"]: r["name"] for r in manifest["cases"]}
     for load in DENT_LOADS:

@@ -378,7 +378,7 @@ GROUPS: dict[str, tuple[str, Callable[[Path], dict[str, float]]]] = {
     "inclusion_hertz_runs": ("fast", groups_a.inclusion_hertz_runs),
     "eshelby_iterations": ("fast", groups_a.eshelby_iterations),
     "dent_study": ("slow", groups_a.dent_study),
-    "dent_vertical": ("slow", groups_a.dent_vertical),
+    "dent_vertical": ("fast", groups_a.dent_vertical),
     "inclusion_campaign": ("slow", groups_a.inclusion_campaign),
     "dent_rolling_inclusion": ("slow", groups_a.dent_rolling_inclusion),
     "inclusion_benchmark": ("slow", groups_a.inclusion_benchmark),
