@@ -257,7 +257,8 @@ def _dent_study_ranges(ds) -> dict[str, float]:
     """The extremes docs/dent-study.md's bullets quote, over the summary's cases."""
     offset, width = ds["dang_van_max_offset"].values, ds["dent_width"].values
     down = offset > 0
-    thickness = 0.6e-3 / 12  # the base case's layer thickness (0.6 mm over 12 layers)
+    grid = _case("pipelines/dent-study-case.toml").grid
+    thickness = grid.depth / grid.nz  # the layers of the base case
     wide = ds["dang_van_max_depth"].values[width == max(DENT_WIDTHS)]
     seed = (ds["dent_width"] == min(DENT_WIDTHS)) & (ds["load"] == max(DENT_LOADS))
     s11 = ds["residual_stress_11_min"].values[seed.values]
