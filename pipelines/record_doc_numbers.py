@@ -13,7 +13,11 @@ docs quote them: ``tests/test_doc_numbers.py`` fails while a quoted number and i
 
 Fast groups are closed forms, ``sacflow validate``'s Hertz numbers and runs of a few seconds;
 ``tests/test_doc_numbers.py`` recomputes them in the default suite and the slow ones with
-``-m slow``.
+``-m slow``. The groups of README.md, docs/compare.md, docs/dent-study.md and docs/inclusions.md
+are in ``pipelines/doc_number_groups_a.py``; numbers that are not computed (inputs, literature
+values, definitions, measurements) are rows of ``data/doc_inputs.csv`` instead
+(``tests/test_doc_inventory.py`` checks that every number of the docs is in one table or the
+other).
 """
 
 from __future__ import annotations
@@ -28,6 +32,9 @@ from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import doc_number_groups_a as groups_a  # noqa: E402  (README.md, compare, dent study, inclusions)
 
 ROOT = Path(__file__).resolve().parents[1]
 TABLE = ROOT / "data" / "doc_numbers.csv"
@@ -364,6 +371,18 @@ GROUPS: dict[str, tuple[str, Callable[[Path], dict[str, float]]]] = {
     "convergence_study": ("fast", convergence_study),
     "dent_hydrostatic": ("fast", dent_hydrostatic),
     "eshelby_sphere": ("fast", eshelby_sphere),
+    "readme_cases": ("fast", groups_a.readme_cases),
+    "hertz_check_grids": ("fast", groups_a.hertz_check_grids),
+    "dent_study_setup": ("fast", groups_a.dent_study_setup),
+    "inclusion_setup": ("fast", groups_a.inclusion_setup),
+    "inclusion_hertz_runs": ("fast", groups_a.inclusion_hertz_runs),
+    "eshelby_iterations": ("fast", groups_a.eshelby_iterations),
+    "dent_study": ("slow", groups_a.dent_study),
+    "dent_vertical": ("fast", groups_a.dent_vertical),
+    "inclusion_campaign": ("slow", groups_a.inclusion_campaign),
+    "dent_rolling_inclusion": ("slow", groups_a.dent_rolling_inclusion),
+    "inclusion_benchmark": ("slow", groups_a.inclusion_benchmark),
+    "dent_grid_change": ("slow", groups_a.dent_grid_change),
 }
 
 
