@@ -14,7 +14,8 @@ docs quote them: ``tests/test_doc_numbers.py`` fails while a quoted number and i
 Fast groups are closed forms, ``sacflow validate``'s Hertz numbers and runs of a few seconds;
 ``tests/test_doc_numbers.py`` recomputes them in the default suite and the slow ones with
 ``-m slow``. The groups of README.md, docs/compare.md, docs/dent-study.md and docs/inclusions.md
-are in ``pipelines/doc_number_groups_a.py``; numbers that are not computed (inputs, literature
+are in ``pipelines/doc_number_groups_a.py``, those of docs/inclusions.md's own hardening in
+``pipelines/doc_number_groups_c.py``; numbers that are not computed (inputs, literature
 values, definitions, measurements) are rows of ``data/doc_inputs.csv`` instead
 (``tests/test_doc_inventory.py`` checks that every number of the docs is in one table or the
 other).
@@ -35,6 +36,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import doc_number_groups_a as groups_a  # noqa: E402  (README.md, compare, dent study, inclusions)
+import doc_number_groups_c as groups_c  # noqa: E402  (inclusions: own hardening)
 
 ROOT = Path(__file__).resolve().parents[1]
 TABLE = ROOT / "data" / "doc_numbers.csv"
@@ -383,6 +385,9 @@ GROUPS: dict[str, tuple[str, Callable[[Path], dict[str, float]]]] = {
     "dent_rolling_inclusion": ("slow", groups_a.dent_rolling_inclusion),
     "inclusion_benchmark": ("slow", groups_a.inclusion_benchmark),
     "dent_grid_change": ("slow", groups_a.dent_grid_change),
+    "own_hardening_checks": ("fast", groups_c.own_hardening_checks),
+    "own_hardening_material_point": ("slow", groups_c.own_hardening_material_point),
+    "own_hardening_cost": ("slow", groups_c.own_hardening_cost),
 }
 
 

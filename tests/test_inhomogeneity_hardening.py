@@ -39,12 +39,24 @@ from sacflow.storage.case_file import case_from_dict
 LOADING = [{"kind": "load", "to": 0.3, "increments": 2}, {"kind": "unload", "increments": 1}]
 #: The matrix's law L1 (yields under the 0.3 N contact, at the depth of the largest shear).
 L1 = {"law": "linear", "yield_stress": 4.0e9, "modulus": 1e10}
+#: The law L2 of the box-wide inhomogeneity: σ_Y(0) = 3.38 GPa < L1's 4 GPa.
+L2 = SwiftHardening(5e9, 0.02, 0.1, "strain")
+#: Own laws of the sphere: a yield stress it reaches under the contact (half L1's), and one it
+#: never sees (five times L1's).
+LOW, HIGH = LinearHardening(2e9, 1e10), LinearHardening(2e10, 1e10)
+#: The deep sphere's own law under σ11 = σ22 = S0 (the matrix never yields: 5 GPa).
+DEEP_LAW, DEEP_MATRIX = LinearHardening(0.4e9, 2e10), PerfectPlasticity(5e9)
+
+
+def base_inputs(hardening: dict = L1) -> SolverInputs:
+    """The 0.3 N contact on 16 × 16 × 8 cells, the matrix's law ``hardening`` (L1)."""
+    return hertz_inputs(16, hardening, LOADING, fft_threads=1)
 
 
 @pytest.fixture
 def base(monkeypatch) -> SolverInputs:
     monkeypatch.setenv("SACFLOW_FFTW_PLANNER", "estimate")  # the same plans in every run
-    return hertz_inputs(16, L1, LOADING, fft_threads=1)
+    return base_inputs()
 
 
 def own(inputs: SolverInputs, law, ratio: float = 1.0, depth: float = 0.5,
@@ -53,6 +65,18 @@ def own(inputs: SolverInputs, law, ratio: float = 1.0, depth: float = 0.5,
     with_sphere = sphere(inputs, depth, radius, ratio)
     return replace(with_sphere, inhomogeneities=(
         replace(with_sphere.inhomogeneities[0], law=law),))
+
+
+def largest_p_inside(state) -> float:
+    """Largest equivalent plastic strain of a state's inhomogeneity cells."""
+    return float(state.volume["equivalent_plastic_strain"][state.volume["phase"] > 0].max())
+
+
+def box_inputs(inputs: SolverInputs, law) -> SolverInputs:
+    """``inputs`` with a cuboid over the whole box of the matrix's E, ν and the law ``law``."""
+    depth = inputs.grid.depth
+    box = Inhomogeneity("cuboid", (0.0, 0.0, depth / 2), (1.0, 1.0, depth / 2), E, NU, law=law)
+    return replace(inputs, inhomogeneities=(box,))
 
 
 def assert_same_runs(first, second, skip=()):
@@ -68,7 +92,7 @@ def assert_same_runs(first, second, skip=()):
 @pytest.mark.parametrize("kinematic", [None, {"modulus": 2e10, "recall": 10.0}])
 def test_matrix_moduli_and_law_give_the_homogeneous_run_bit_for_bit(base, kinematic):
     if kinematic is not None:
-        base = hertz_inputs(16, {**L1, "kinematic": kinematic}, LOADING, fft_threads=1)
+        base = base_inputs({**L1, "kinematic": kinematic})
     _, homogeneous = run(base)
     with_sphere = own(base, base.material.law)
     inh = replace(with_sphere.inhomogeneities[0], kinematic=base.material.kinematic)
@@ -76,18 +100,15 @@ def test_matrix_moduli_and_law_give_the_homogeneous_run_bit_for_bit(base, kinema
     assert_same_runs(homogeneous, same)
     inside = same[1].volume["phase"] > 0
     # measured: 1.70e-4 in the 12 cells of the sphere, returned by its own (equal) law
-    assert same[1].volume["equivalent_plastic_strain"][inside].max() > 1e-4
+    assert largest_p_inside(same[1]) > 1e-4
     if kinematic is not None:
         assert np.abs(same[1].volume["backstress"][inside]).max() > 0
 
 
 def test_a_box_wide_inhomogeneity_with_law_l2_is_the_homogeneous_l2_run(base, monkeypatch):
-    law = SwiftHardening(5e9, 0.02, 0.1, "strain")  # σ_Y(0) = 3.38 GPa < L1's 4 GPa
-    l2 = replace(base, material=replace(base.material, law=law))
+    l2 = replace(base, material=replace(base.material, law=L2))
     _, homogeneous = run(l2)
-    depth = base.grid.depth
-    box = Inhomogeneity("cuboid", (0.0, 0.0, depth / 2), (1.0, 1.0, depth / 2), E, NU, law=law)
-    _, covered = run(replace(base, inhomogeneities=(box,)))
+    _, covered = run(box_inputs(base, L2))
     assert (covered[1].volume["phase"] == 1).all()
     assert covered[1].volume["equivalent_plastic_strain"].max() > 4e-3  # measured 4.5e-3
     for h, c in zip(homogeneous, covered, strict=True):
@@ -110,8 +131,8 @@ def fields_inside(state):
 @pytest.mark.parametrize("ratio", [1.0, 2.0])
 def test_a_lower_own_yield_stress_yields_inside_a_higher_one_does_not(base, ratio):
     _, elastic = run(sphere(base, 0.5, 0.3, ratio))
-    _, low = run(own(base, LinearHardening(2e9, 1e10), ratio))
-    _, high = run(own(base, LinearHardening(2e10, 1e10), ratio))
+    _, low = run(own(base, LOW, ratio))
+    _, high = run(own(base, HIGH, ratio))
     assert all(s.converged for s in low + high)
     _, soft = fields_inside(low[1])
     _, stiff = fields_inside(elastic[1])
@@ -124,7 +145,7 @@ def test_a_lower_own_yield_stress_yields_inside_a_higher_one_does_not(base, rati
 
 
 def test_the_converged_cells_satisfy_eshelby_and_their_own_yield_condition(base):
-    ratio, law = 2.0, LinearHardening(2e9, 1e10)
+    ratio, law = 2.0, LOW
     _, states = run(own(base, law, ratio))
     _, inside = fields_inside(states[1])
     p, stress = inside["equivalent_plastic_strain"], inside["stress"]
@@ -173,6 +194,30 @@ def material_point(ratio, law):
     return ck @ (remote + eshelby @ e - plastic), plastic, dp
 
 
+def deep_yielding_sphere(ratio: float, cells: int) -> dict:
+    """A sphere yielding under σ11 = σ22 = S0 against :func:`material_point`.
+
+    Eshelby's sphere of ``tests/test_inhomogeneity_solver.py`` (``cells`` cells per radius,
+    4 radii deep) with modulus ``ratio`` E and the own law :data:`DEEP_LAW`, the matrix
+    :data:`DEEP_MATRIX` (never reached). Returns the state, the sphere's cells, the relative
+    error of the mean interior stress, the mean interior plastic strain and the material
+    point's, and the mean p's offset over the material point's (``mean p / Δp − 1``).
+    """
+    stress, plastic, dp = material_point(ratio, DEEP_LAW)
+    inputs = eshelby_inputs(2.0, cells)
+    inh = replace(inputs.inhomogeneities[0], E=ratio * E, law=DEEP_LAW)
+    inputs = replace(inputs, inhomogeneities=(inh,),
+                     material=replace(inputs.material, law=DEEP_MATRIX))
+    _, (state,) = run(inputs)
+    inside, fields = fields_inside(state)
+    mean_stress = fields["stress"].mean(axis=0)
+    return {"state": state, "inside": inside,
+            "stress_error": float(np.linalg.norm(mean_stress - stress) / np.linalg.norm(stress)),
+            "mean_plastic_strain": fields["plastic_strain"].mean(axis=0),
+            "plastic_strain": plastic,
+            "p_offset": float(fields["equivalent_plastic_strain"].mean() / dp - 1.0)}
+
+
 @pytest.mark.parametrize("ratio", [1.0, 2.0])
 def test_a_deep_yielding_sphere_against_the_material_point_of_eshelby_s_field(ratio):
     """Mean interior fields of a staircase sphere 4 radii deep against the uniform solution.
@@ -185,28 +230,21 @@ def test_a_deep_yielding_sphere_against_the_material_point_of_eshelby_s_field(ra
     0.10 at 5 cells, 0.08 at 7, its mean 0.479), and p, convex in it, averages above the
     uniform value. The two ratios share that offset: the coupling with ε* adds none of its own.
     """
-    law = LinearHardening(0.4e9, 2e10)
-    stress, plastic, dp = material_point(ratio, law)
     errors = []
     for cells in (2, 3):
-        inputs = eshelby_inputs(2.0, cells)
-        inh = replace(inputs.inhomogeneities[0], E=ratio * E, law=law)
-        inputs = replace(inputs, inhomogeneities=(inh,),
-                         material=replace(inputs.material, law=PerfectPlasticity(5e9)))
-        _, (state,) = run(inputs)
+        deep = deep_yielding_sphere(ratio, cells)
+        state, inside = deep["state"], deep["inside"]
         assert state.converged
-        inside, fields = fields_inside(state)
         assert not state.volume["equivalent_plastic_strain"][~inside].any()  # the sphere only
-        mean_stress = fields["stress"].mean(axis=0)
-        assert np.linalg.norm(mean_stress - stress) < 0.015 * np.linalg.norm(stress)
-        np.testing.assert_allclose(fields["plastic_strain"].mean(axis=0), plastic, rtol=0,
-                                   atol=0.07 * np.abs(plastic).max())
-        errors.append(fields["equivalent_plastic_strain"].mean() / dp - 1.0)
+        assert deep["stress_error"] < 0.015
+        np.testing.assert_allclose(deep["mean_plastic_strain"], deep["plastic_strain"], rtol=0,
+                                   atol=0.07 * np.abs(deep["plastic_strain"]).max())
+        errors.append(deep["p_offset"])
     assert 0.0 < errors[1] < errors[0] < 0.065, errors
 
 
 def test_nested_scheme_and_resume_reach_the_same_state(base):
-    inputs = own(base, LinearHardening(2e9, 1e10), 2.0)
+    inputs = own(base, LOW, 2.0)
     _, states = run(inputs)
     loaded = states[1]
     _, nested = run(replace(inputs, settings=replace(inputs.settings, scheme="nested")))

@@ -1,0 +1,178 @@
+"""Groups of ``pipelines/record_doc_numbers.py`` for docs/inclusions.md's section on an
+inhomogeneity's own hardening (#30, #33).
+
+Each group is a function of the output folder (unused here: the runs are in memory) returning
+``{key: value in SI units}``; ``record_doc_numbers.GROUPS`` registers it as fast (runs of
+seconds: recomputed in the default suite) or slow (``pytest -m slow``). The checks reuse the
+helpers of ``tests/test_inhomogeneity_hardening.py``; the cost table runs the one-step case and
+sphere of ``benchmarks/inclusion.py`` with the sphere elastic or with a law of its own.
+
+    python pipelines/doc_number_groups_c.py [n]
+
+prints the cost table's configurations (default n = 32) as JSON, with their step times (the
+times docs/inclusions.md quotes are such measurements, on a shared machine).
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+#: The cost table's sphere: elastic, or with the matrix's law, or with half its yield stress.
+COST_CONFIGURATIONS = ("none", "elastic", "matrix_law", "half_yield")
+#: Cells per radius of the staircase spheres whose constraint docs/inclusions.md quotes.
+CONSTRAINT_CELLS = (5, 7)
+#: The uniform deviatoric eigenstrain put in the staircase sphere (11, 22, 33, 12, 13, 23),
+#: the direction of the deep sphere's plastic strain under σ11 = σ22 [1].
+DEVIATORIC_EIGENSTRAIN = 1e-3 * np.array([1.0, 1.0, -2.0, 0.0, 0.0, 0.0])
+
+
+def _tests():
+    """The test module of the own-hardening checks (and, through it, its sibling helpers)."""
+    sys.path.insert(0, str(ROOT / "tests"))
+    import test_inhomogeneity_hardening
+
+    return test_inhomogeneity_hardening
+
+
+def own_hardening_checks(out: Path) -> dict[str, float]:
+    """The 0.3 N checks of ``tests/test_inhomogeneity_hardening.py`` (16 × 16 × 8 cells, a
+    sphere of 0.3 a at 0.5 a): the largest p inside a sphere with the matrix's law (and its
+    cells), over a box-wide law L2 (and L2's initial yield stress), inside a sphere with a lower
+    own yield stress at E*/E = 1 and 2; then the staircase sphere's constraint."""
+    checks = _tests()
+    base = checks.base_inputs()
+    _, same = checks.run(checks.own(base, base.material.law))
+    _, box = checks.run(checks.box_inputs(base, checks.L2))
+    numbers = {
+        "own_hardening_matrix_law_eqps": checks.largest_p_inside(same[1]),
+        "own_hardening_matrix_law_cells": float((same[1].volume["phase"] > 0).sum()),
+        "own_hardening_l2_yield": float(checks.L2.yield_stress(np.zeros(1))[0]),
+        "own_hardening_l2_eqps": float(box[1].volume["equivalent_plastic_strain"].max()),
+    }
+    for ratio in (1.0, 2.0):
+        _, low = checks.run(checks.own(base, checks.LOW, ratio))
+        numbers[f"own_hardening_low_eqps_{ratio:g}"] = checks.largest_p_inside(low[1])
+    return numbers | staircase_constraint()
+
+
+def staircase_constraint() -> dict[str, float]:
+    """Constraint 1 + σ11/(2μ εp11) of the cells of a staircase sphere holding a uniform
+    deviatoric eigenstrain, against Eshelby's 2 S1212 = 2(4 − 5ν)/(15(1 − ν)) (Mura §11).
+
+    The sphere of ``tests/test_inhomogeneity_solver.py``'s ``eshelby_inputs`` (4 radii deep) at
+    :data:`CONSTRAINT_CELLS` cells per radius; its stress from ``sacflow.residual_stress`` (the
+    half-space operator of the run's cells). In an infinite body the uniform eigenstrain gives
+    the uniform constraint 2 S1212; each cell of the staircase has its own. Returns the
+    extremes, mean and standard deviation at the first resolution, the standard deviation at
+    the others, and Eshelby's value.
+    """
+    sys.path.insert(0, str(ROOT / "tests"))
+    import test_inhomogeneity_solver as eshelby
+
+    from sacflow import residual_stress
+    from sacflow.solver.phase import phase_field
+    from sacflow.solver.simulation import Simulation
+
+    mu = eshelby.E / (2.0 * (1.0 + eshelby.NU))
+    numbers = {"staircase_constraint_eshelby": float(2.0 * eshelby.eshelby_tensor()[3, 3])}
+    for cells in CONSTRAINT_CELLS:
+        inputs = eshelby.eshelby_inputs(1.0, cells)
+        coords = Simulation(inputs).coords
+        inside = phase_field(inputs.inhomogeneities, coords.x1, coords.x2, coords.x3) == 1
+        strain = np.zeros((*inside.shape, 6))
+        strain[inside] = DEVIATORIC_EIGENSTRAIN
+        spacing = (*inputs.grid.cell, inputs.grid.depth / inputs.grid.nz)
+        stress = residual_stress(strain, spacing, eshelby.E, eshelby.NU)[inside]
+        constraint = 1.0 + stress[:, 0] / (2.0 * mu * DEVIATORIC_EIGENSTRAIN[0])
+        numbers[f"staircase_constraint_std_{cells}"] = float(constraint.std())
+        if cells == CONSTRAINT_CELLS[0]:
+            numbers["staircase_constraint_min"] = float(constraint.min())
+            numbers["staircase_constraint_max"] = float(constraint.max())
+            numbers["staircase_constraint_mean"] = float(constraint.mean())
+    return numbers
+
+
+#: Cells per radius and modulus ratios E*/E of the deep yielding sphere's comparison.
+MATERIAL_POINT_CELLS, MATERIAL_POINT_RATIOS = (2, 3, 5), (1.0, 2.0)
+
+
+def own_hardening_material_point(out: Path) -> dict[str, float]:
+    """The deep sphere yielding under σ11 = σ22 = 1 GPa against the material point of
+    Eshelby's uniform interior field (``tests/test_inhomogeneity_hardening.py``'s
+    ``deep_yielding_sphere``): the relative error of the mean interior stress and the mean p's
+    offset, at 2, 3 and 5 cells per radius, E*/E = 1 and 2 (the last run half a minute)."""
+    checks = _tests()
+    numbers = {}
+    for ratio in MATERIAL_POINT_RATIOS:
+        for cells in MATERIAL_POINT_CELLS:
+            deep = checks.deep_yielding_sphere(ratio, cells)
+            stem = f"own_hardening_point_{ratio:g}_{cells}"
+            numbers[f"{stem}_stress"] = deep["stress_error"]
+            numbers[f"{stem}_p"] = deep["p_offset"]
+    return numbers
+
+
+def cost_step(n: int, configuration: str) -> dict[str, float]:
+    """One load step of ``benchmarks/inclusion.py``'s case and sphere with the sphere
+    ``configuration`` (:data:`COST_CONFIGURATIONS`): the residual-stress applications, GMRES
+    iterations, the sphere's cells, the largest p inside and outside it, the step's time."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    import inclusion as benchmark
+    from _common import hertz_step_case
+
+    from sacflow.config.solver_inputs import simulation_for
+    from sacflow.mechanics.hardening import LinearHardening
+    from sacflow.solver.inputs import Inhomogeneity
+    from sacflow.solver.simulation import Simulation
+    from sacflow.storage.case_file import case_from_dict
+
+    case = case_from_dict(hertz_step_case(n, "coupled", "mild"))
+    inputs = simulation_for(case).inputs
+    hardening = case.body.hardening
+    laws = {"elastic": None, "matrix_law": inputs.material.law,
+            "half_yield": LinearHardening(hardening.yield_stress / 2, hardening.modulus)}
+    if configuration != "none":
+        sphere = Inhomogeneity("sphere", (0.0, 0.0, benchmark.DEPTH * case.hertz().a),
+                               (benchmark.RADIUS_CELLS * inputs.grid.cell[0],) * 3,
+                               benchmark.MODULUS, 0.25, law=laws[configuration])
+        inputs = replace(inputs, inhomogeneities=(sphere,))
+    simulation = Simulation(inputs)
+    start = time.perf_counter()  # the step alone, as the benchmark times it
+    state = next(iter(simulation.run()))
+    seconds = time.perf_counter() - start
+    p = state.volume["equivalent_plastic_strain"]
+    inside = state.volume["phase"] > 0 if configuration != "none" else np.zeros(p.shape, bool)
+    return {"applications": float(state.plasticity_iterations),
+            "gmres": float(state.inclusion_iterations), "cells": float(inside.sum()),
+            "eqps_in": float(p[inside].max()) if inside.any() else float("nan"),
+            "eqps_out": float(p[~inside].max()), "step_s": seconds}
+
+
+#: The cost table's grid: n × n × n/2 cells.
+COST_GRID = 32
+
+
+def own_hardening_cost(out: Path) -> dict[str, float]:
+    """docs/inclusions.md's cost table (counts, largest p): :func:`cost_step` at n = 32 for each
+    configuration (seconds each; its times are measurements, not recorded)."""
+    numbers = {}
+    for configuration in COST_CONFIGURATIONS:
+        step = cost_step(COST_GRID, configuration)
+        for name in ("applications", "gmres", "eqps_out"):
+            numbers[f"own_hardening_cost_{configuration}_{name}"] = step[name]
+        if configuration != "none":
+            numbers[f"own_hardening_cost_{configuration}_eqps_in"] = step["eqps_in"]
+            numbers["own_hardening_cost_cells"] = step["cells"]
+    return numbers
+
+
+if __name__ == "__main__":
+    size = int(sys.argv[1]) if len(sys.argv) > 1 else COST_GRID
+    print(json.dumps({c: cost_step(size, c) for c in COST_CONFIGURATIONS}, indent=2))
