@@ -100,3 +100,24 @@ def test_a_support_growing_before_and_between_its_entries_mixes_as_dense_vectors
             assert_allclose(out, expected, rtol=1e-9, atol=1e-9)
             assert not out[~ever].any()
         mixer.reset()
+
+
+def test_a_deepened_history_mixes_as_one_that_was_deep_from_the_start():
+    """``deepen`` keeps the stored differences: the steps are those of the deeper mixer.
+
+    Deepened while it holds fewer differences than its old depth, a depth-2 mixer then takes
+    bit for bit the steps of a depth-4 one fed the same iterates (and more than 2 differences,
+    which the old depth would have rolled out).
+    """
+    rng = np.random.default_rng(5)
+    n = 30
+    shallow, deep, kept = AndersonMixer(2), AndersonMixer(4), AndersonMixer(2)
+    for k in range(8):
+        if k == 2:  # one difference stored
+            shallow.deepen(4)
+        x, gx = rng.standard_normal(n), rng.standard_normal(n)
+        step = shallow.step(x, gx)
+        assert np.array_equal(step, deep.step(x, gx))
+        rolled = kept.step(x, gx)  # the depth-2 mixer: from the 4th step on, another one
+        assert np.array_equal(step, rolled) == (k < 3)
+    assert shallow.depth == 4

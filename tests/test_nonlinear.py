@@ -199,3 +199,56 @@ def test_the_difference_jacobian_of_a_linear_map_is_exact():
     v = rng.standard_normal(12)
     assert_allclose(jac.matvec(v), v - a @ v, rtol=0, atol=1e-6 * np.abs(v).max())
     assert_allclose(jac.matvec(np.zeros(12)), 0.0)
+
+
+def slow_directions_problem(n: int = 40, seed: int = 0):
+    """G(x) = A x + b, A symmetric with ``1 − eig(A)`` spread geometrically from 1 to 1e-3.
+
+    A smooth map with a few slow directions, as the perfectly plastic fixed point on a fine
+    grid (nothing changes state, yet ``I − G'`` has eigenvalues near 0): a depth-5 Anderson
+    history keeps forgetting them and plateaus; a deeper one spans them.
+    """
+    rng = np.random.default_rng(seed)
+    q, _ = np.linalg.qr(rng.standard_normal((n, n)))
+    a = q @ np.diag(1.0 - np.geomspace(1.0, 1e-3, n)) @ q.T
+    b = rng.standard_normal(n)
+    calls = []
+
+    def evaluate(x):
+        calls.append(1)
+        gx = a @ x + b
+        return Evaluation(gx, relative(gx, x))
+
+    return evaluate, np.linalg.solve(np.eye(n) - a, b), calls
+
+
+def below_1e6(x, ev: Evaluation) -> bool:
+    return ev.residual < 1e-6
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_a_stalled_anderson_history_is_deepened(seed):
+    """Depth-5 sweeps stall for good on slow directions; deepened on the stall they converge."""
+    evaluate, exact, calls = slow_directions_problem(seed=seed)
+    x0 = np.zeros_like(exact)
+    kept = NewtonSettings(stall_depth=5)  # never deeper than the run's depth: the old solver
+    with pytest.raises(FixedPointError):
+        solve_fixed_point(evaluate, x0, below_1e6, max_iterations=400, anderson_depth=5,
+                          settings=kept)
+    calls.clear()
+    out = solve_fixed_point(evaluate, x0, below_1e6, max_iterations=400, anderson_depth=5)
+    assert out.newton_steps == 0 and out.sweeps < 200 and len(calls) == out.sweeps + 1
+    # the error is bounded by ‖(I − A)⁻¹‖ = 1e3 times the residual, which is below 1e-6
+    residual = out.evaluation.gx - out.x
+    assert np.linalg.norm(out.x - exact) <= 1.001e3 * np.linalg.norm(residual)
+    assert np.abs(residual).max() < 1e-6 * np.abs(out.x).max()
+
+
+def test_sweeps_that_do_not_stall_are_not_deepened():
+    """Below ``stall_sweeps`` sweeps without progress nothing changes: the same iterates."""
+    evaluate, exact, _ = linear_problem()
+    runs = [solve_fixed_point(evaluate, np.zeros_like(exact), below_tol, max_iterations=2000,
+                              anderson_depth=5, settings=NewtonSettings(stall_depth=depth))
+            for depth in (5, 20)]
+    assert runs[0].sweeps == runs[1].sweeps
+    assert np.array_equal(runs[0].x, runs[1].x)

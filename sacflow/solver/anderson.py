@@ -55,6 +55,20 @@ class AndersonMixer:
         self._support = np.zeros(0, dtype=np.intp)
         self._kept = None
 
+    def deepen(self, depth: int) -> None:
+        """Keep up to ``depth`` differences from now on, the ones stored so far included.
+
+        A deeper history lets the least-squares step span the slow directions of ``G`` that a
+        short one keeps forgetting (Anderson(m) on a linear map is a windowed GMRES: Walker &
+        Ni 2011, §2; a short window stagnates where GMRES(m) does). Nothing stored is lost, so
+        the next step is the one the deeper mixer would take with this history.
+        """
+        if depth <= self.depth:
+            return
+        self.depth = depth
+        self._dx = deque(self._dx, maxlen=depth)
+        self._df = deque(self._df, maxlen=depth)
+
     def _grow_support(self, x: np.ndarray, gx: np.ndarray) -> None:
         """Add the nonzero entries of ``x`` and ``G(x)``; widen the stored vectors with zeros.
 

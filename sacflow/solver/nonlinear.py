@@ -4,8 +4,12 @@ The plastic strain increment of a load step is such a fixed point (seed §1.7, F
 is the J2 radial return of the trial stress, piecewise smooth in ``x``. Sweeps accelerated by
 Anderson mixing (:mod:`sacflow.solver.anderson`; Walker & Ni, SIAM J. Numer. Anal. 49 (2011) 1715)
 solve
-most steps in a few evaluations. When the plastic zone changes (cells entering or leaving the
-active set) the sweeps can stall; the solver then switches to semismooth Newton on
+most steps in a few evaluations. A short history can plateau on a smooth map with a few slow
+directions (``I − ∂G/∂x`` nearly singular: perfect plasticity on a fine grid, where no cell
+changes state); the first time the sweeps stall, the history is deepened, keeping what it holds
+(Anderson(m) on a linear map is a windowed GMRES, Walker & Ni §2: a deeper window spans the
+slow directions). When the plastic zone changes (cells entering or leaving the
+active set) the sweeps can stall again; the solver then switches to semismooth Newton on
 ``F(x) = G(x) − x`` (Qi & Sun, Math. Program. 58 (1993) 353): the generalised Jacobian
 ``J = I − ∂G/∂x`` is given by the caller as a matrix-free operator, inverted inexactly by
 restarted GMRES (Saad & Schultz 1986; forcing term as in Eisenstat & Walker, SIAM J. Sci. Comput.
@@ -53,7 +57,14 @@ class NewtonSettings:
         A residual counts as progress when it is below this fraction of the best one so far
         (with Anderson) or of the previous one (plain sweeps).
     stall_sweeps : int
-        Anderson sweeps without progress after which Newton takes over.
+        Anderson sweeps without progress after which the history is deepened to
+        ``stall_depth`` (once), and then Newton takes over when they stall again.
+    stall_depth : int
+        Anderson history depth after the first stall. A smooth map with a few slow directions
+        (perfect plasticity on a fine grid: no cell changes state, yet a short history plateaus
+        for tens of sweeps) needs the deeper window; it costs no evaluation, where a
+        finite-difference Newton step costs one per Krylov vector and its restarted GMRES
+        stagnates on the same directions.
     gmres_restart : int
         Krylov subspace size before GMRES restarts.
     gmres_restarts : int
@@ -70,6 +81,7 @@ class NewtonSettings:
 
     progress_ratio: float = 0.5
     stall_sweeps: int = 25
+    stall_depth: int = 20
     gmres_restart: int = 30
     gmres_restarts: int = 4
     gmres_rtol_loosest: float = 0.1
@@ -165,10 +177,14 @@ def solve_fixed_point(
             return FixedPointResult(x, ev, sweeps, newton_steps)
         if mixer is None:
             newton = newton or ev.residual > settings.progress_ratio * previous
-        else:  # Anderson stalls on some active-set changes: fall back to Newton
+        else:  # Anderson stalls: deepen its history once, then fall back to Newton
             if ev.residual < settings.progress_ratio * best:
                 best, stalled = ev.residual, 0
             stalled += 1
+            if stalled > settings.stall_sweeps and mixer.depth < settings.stall_depth:
+                mixer.deepen(settings.stall_depth)
+                log.debug("%s: stalled, Anderson depth %d", label, settings.stall_depth)
+                stalled = 1
             newton = newton or stalled > settings.stall_sweeps
         previous = ev.residual
         if newton and jacobian is not None:
