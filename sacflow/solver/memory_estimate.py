@@ -38,6 +38,7 @@ from dataclasses import dataclass
 from sacflow.errors import GridTooLargeError
 from sacflow.machine.resources import available_memory
 from sacflow.solver.layout import BodyGrid
+from sacflow.solver.nonlinear import NewtonSettings
 
 __all__ = [
     "MemoryEstimate",
@@ -232,8 +233,12 @@ def _solver_state(grid: BodyGrid, anderson_depth: int) -> tuple[MemoryItem, Memo
         f"zone): {fields:.0f} volume tensor fields",
     )
     krylov = GMRES_RESTART + 1 + NEWTON_EXTRA
-    newton = MemoryItem("Newton-Krylov basis", krylov * tensor,
-                        f"{krylov} volume tensor fields if the fixed point stalls")
+    # a stalled history is deepened to NewtonSettings.stall_depth before Newton takes over
+    deepened = 2 * max(NewtonSettings.stall_depth - depth, 0) * ANDERSON_SUPPORT if depth else 0
+    newton = MemoryItem("stalled fixed point", int((krylov + deepened) * tensor),
+                        f"if the fixed point stalls: the Anderson history deepened to "
+                        f"{NewtonSettings.stall_depth} ({deepened:.1f} volume tensor fields on "
+                        f"the plastic zone) and the Newton-Krylov basis ({krylov})")
     return state, newton
 
 
