@@ -30,6 +30,9 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "pipelines"))
+from doc_number_groups_b import GROUPS as GROUPS_B  # noqa: E402  (a sibling script)
+
 TABLE = ROOT / "data" / "doc_numbers.csv"
 COLUMNS = ["key", "file", "quoted", "number", "unit", "scale", "value", "tolerance", "group",
            "method", "grid", "speed"]
@@ -364,6 +367,7 @@ GROUPS: dict[str, tuple[str, Callable[[Path], dict[str, float]]]] = {
     "convergence_study": ("fast", convergence_study),
     "dent_hydrostatic": ("fast", dent_hydrostatic),
     "eshelby_sphere": ("fast", eshelby_sphere),
+    "convergence_grid": GROUPS_B["convergence_grid"],
 }
 
 

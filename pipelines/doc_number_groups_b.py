@@ -1,0 +1,285 @@
+"""Groups of ``pipelines/record_doc_numbers.py`` for docs/initial-states.md, docs/friction.md,
+docs/repeated-rolling.md, docs/convergence.md and docs/fatigue.md (issue #30).
+
+Each group is a function of the output folder returning ``{key: value in SI units}``; the rows
+of ``data/doc_numbers.csv`` name the group. Fast groups read the shipped tables under ``data/``
+back or compute closed forms and runs of seconds; slow groups run shipped cases at their shipped
+grids (minutes; finished runs in the folder are reused).
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _import(folder: str, name: str):
+    """A script of ``pipelines/`` or ``tests/`` as a module (they are not a package)."""
+    path = str(ROOT / folder)
+    if path not in sys.path:
+        sys.path.insert(0, path)
+    return __import__(name)
+
+
+# --------------------------------------------------------------------- docs/initial-states.md
+def _surface_numbers(path: Path) -> dict[str, float]:
+    """The dent of a text surface (height positive outward): depth, hollow along x1 on the
+    track centre (cell centres below the plane), rim height."""
+    x1, x2, height = np.loadtxt(path, comments="#", unpack=True)
+    centre = np.isclose(x2, x2[np.argmin(np.abs(x2))])
+    hollow = x1[centre & (height < 0.0)]
+    return {"depth": float(-height.min()), "hollow_from": float(hollow.min()),
+            "hollow_to": float(hollow.max()), "rim": float(height.max())}
+
+
+def dent_from_indentation(out: Path) -> dict[str, float]:
+    """``python pipelines/dent_from_indentation.py`` at its shipped grids (docs/initial-states.md):
+    the press, the chained and the shape-only rolling runs, their comparison and fatigue."""
+    import xarray as xr
+
+    from sacflow.compare.fatigue_index import fatigue
+    from sacflow.runner import run_case
+    from sacflow.storage.case_file import load_case
+
+    pipeline = _import("pipelines", "dent_from_indentation")
+    folder = out / "dent-from-indentation"
+    compared = pipeline.compare_histories(folder, [], [], progress=False)
+    numbers = {f"dent_indentation_{k}": v for k, v in compared.items()}
+    press = run_case(load_case(pipeline.PRESS), folder, progress=False).path
+    with xr.open_dataset(press) as ds:
+        last = ds.isel(step=-1)
+        numbers["dent_indentation_press_depth"] = float(last["residual_displacement"].max())
+        numbers["dent_indentation_press_max_eqps"] = float(
+            last["equivalent_plastic_strain"].max())
+    surface = _surface_numbers(folder / pipeline.SURFACE)
+    numbers |= {f"dent_indentation_surface_{k}": v for k, v in surface.items()}
+    chained = load_case(pipeline.CHAINED, [f"initial_state.run={press}"])
+    numbers["dent_indentation_smooth_p0"] = chained.hertz().p0
+    for label in ("rolling", "geometric"):
+        run = folder / f"dent-from-indentation-{label}.nc"
+        with xr.open_dataset(run) as ds:
+            numbers[f"dent_indentation_peak_pressure_{label}"] = float(ds["max_pressure"].max())
+        index = fatigue(run)
+        for name in ("dang_van", "crossland"):
+            for what in ("", "_x1", "_x2", "_depth"):
+                numbers[f"dent_indentation_{name}_track_max{what}_{label}"] = float(
+                    index[f"{name}_track_max{what}"])
+    return numbers
+
+
+def _case(path: str, overrides: tuple[str, ...] = ()):
+    from sacflow.storage.case_file import load_case
+
+    return load_case(ROOT / path, list(overrides))
+
+
+#: σR / p0 of docs/initial-states.md's table (the cases of ``tests/test_initial_state.py``: a
+#: rigid sphere R = 10 mm on an elastic steel body at p0 = 2 GPa, 32 × 32 × 16 cells over ±1.5 a,
+#: 1.2 a deep), and the scan (steps of 0.01) that finds where the largest von Mises stress
+#: leaves the axis.
+INITIAL_STRESS_RATIOS = (0.1, 0.0, -0.1, -0.2, -0.3)
+AXIS_SCAN = tuple(round(-0.20 - 0.01 * i, 2) for i in range(11))
+
+
+def hertz_with_initial_stress(ratio: float) -> tuple[float, float, float]:
+    """Largest von Mises / p0 of Huber's Hertz field plus σ11 = σ22 = ratio p0, searched over
+    x = 0–2 a (401 points) and z = 0.001–1.5 a (300 points); and where (x/a, z/a)."""
+    from sacflow.mechanics.hertz import hertz_subsurface_stress
+    from sacflow.mechanics.stress_measures import von_mises
+
+    x, z = np.linspace(0.0, 2.0, 401), np.linspace(1e-3, 1.5, 300)
+    stress = hertz_subsurface_stress(x[:, None], 0.0, z[None, :], 1.0, 1.0, 0.3)
+    stress[..., :2] += ratio
+    q = von_mises(stress)
+    i, j = np.unravel_index(int(np.argmax(q)), q.shape)
+    return float(q[i, j]), float(x[i]), float(z[j])
+
+
+def _initial_stress_run(ratio: float, p0: float) -> float:
+    import math
+
+    from sacflow.config.solver_inputs import simulation_for
+    from sacflow.mechanics.hertz import composite_modulus
+    from sacflow.mechanics.stress_measures import von_mises
+    from sacflow.storage.case_file import case_from_dict
+
+    e, nu, radius = 210e9, 0.3, 10e-3
+    a = math.pi * p0 * radius / (2.0 * composite_modulus(e, nu))
+    case = {"name": "initial-stress",
+            "body": {"E": e, "nu": nu, "hardening": {"law": "elastic"},
+                     "initial_residual_stress": {"depth": [0.0], "s11": [ratio * p0],
+                                                 "s22": [ratio * p0]}},
+            "counterbody": {"kind": "rigid", "radius": radius},
+            "grid": {"nx": 32, "ny": 32, "nz": 16, "half_width": 1.5, "depth": 1.2 * a},
+            "load_path": [{"kind": "load", "to": 2.0 * math.pi * a * a * p0 / 3.0,
+                           "increments": 1}],
+            "output": {"fields": ["load", "pressure", "stress", "residual_stress"]}}
+    state = list(simulation_for(case_from_dict(case)).run())[-1]
+    return float(von_mises(state.volume["stress"]).max() / p0)
+
+
+def initial_stress_von_mises(out: Path) -> dict[str, float]:
+    """docs/initial-states.md: largest von Mises / p0 of Hertz + σR, closed form and run."""
+    numbers: dict[str, float] = {}
+    for ratio in INITIAL_STRESS_RATIOS:
+        key = f"initial_stress_{ratio:+.1f}"
+        numbers[f"{key}_closed"], numbers[f"{key}_x"], numbers[f"{key}_z"] = (
+            hertz_with_initial_stress(ratio))
+        numbers[f"{key}_sacflow"] = _initial_stress_run(ratio, 2.0e9)
+    on_axis = [r for r in AXIS_SCAN if hertz_with_initial_stress(r)[1] == 0.0]
+    numbers["initial_stress_axis_last"] = min(on_axis)
+    numbers["initial_stress_axis_first_off"] = max(r for r in AXIS_SCAN if r < min(on_axis))
+    return numbers
+
+
+
+# --------------------------------------------------------------------------- docs/friction.md
+#: Friction coefficients of docs/friction.md's sliding table; 0.32 for the crossing it names.
+SLIDING_MU = (0.0, 0.25, 0.3, 0.35, 0.5)
+#: Cells across the contact diameter of the trailing-edge convergence table.
+EDGE_CELLS = (64, 128, 256, 512, 1024)
+#: The rate the traction's square-root edge predicts for piecewise-constant cells (h^½).
+EDGE_RATE = 0.5
+
+
+def _von_mises_row(stress: np.ndarray) -> float:
+    from sacflow.mechanics.stress_measures import von_mises
+
+    return float(von_mises(np.asarray(stress)[None, :])[0])
+
+
+def _edge_limit(values: list[float]) -> float:
+    """Extrapolate the last two of a sequence of cell-halving levels at the rate ½."""
+    return values[-1] + (values[-1] - values[-2]) / (2.0**EDGE_RATE - 1.0)
+
+
+def _trailing_edge(test, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Surface stress / p0 at (−a, 0) on n cells of the Hertz pressure and of its traction per
+    unit μ (the stress is linear in μ: σ(μ) = σ_p + μ σ_q)."""
+    pressure = np.asarray(test.surface_stress(-1.0, 0.0, n, 0.0))
+    return pressure, np.asarray(test.surface_stress(-1.0, 0.0, n, 1.0)) - pressure
+
+
+def sliding_hertz(out: Path) -> dict[str, float]:
+    """docs/friction.md's checks of configs/sliding-hertz.toml (seconds).
+
+    The trailing edge: σ11 and σvM of the Hertz pressure and traction summed with the
+    closed-form rectangle kernels (``tests/test_friction.py``'s ``surface_stress``), the
+    convergence table at μ = 0.25 and the surface column per μ (extrapolated at the rate ½ from
+    512 and 1024 cells). Below the surface: ``pipelines/friction_report.py`` per μ (128 × 128
+    cells over ±1.25 a, 64 layers down to a). The first-yield load is the lower of the two.
+    """
+    test = _import("tests", "test_friction")
+    report = _import("pipelines", "friction_report")
+    levels = {n: _trailing_edge(test, n) for n in EDGE_CELLS}
+    exact = float(test.trailing_edge_closed_form(0.25))
+    s11 = [float(p[0] + 0.25 * q[0]) for p, q in levels.values()]
+    numbers = {"edge_closed_form": exact}
+    for n, value in zip(EDGE_CELLS, s11, strict=True):
+        numbers[f"edge_s11_{n}"] = value
+        numbers[f"edge_error_{n}"] = value / exact - 1.0
+    numbers["edge_fitted_rate"] = float(
+        -np.polyfit(np.log(EDGE_CELLS), np.log(exact - np.asarray(s11)), 1)[0])
+    numbers["edge_extrapolated"] = _edge_limit(s11)
+    numbers["edge_extrapolated_error"] = numbers["edge_extrapolated"] / exact - 1.0
+    numbers["edge_normal_error_256"] = (
+        float(levels[256][0][0]) / float(test.trailing_edge_closed_form(0.0)) - 1.0)
+    for mu in (*SLIDING_MU, 0.32):
+        edge = _edge_limit([_von_mises_row(p + mu * q) for p, q in list(levels.values())[2:]])
+        numbers[f"edge_von_mises_{mu:g}"] = edge
+        if mu not in SLIDING_MU:
+            continue
+        row = report.report(mu, 128, 64)
+        for key in ("von_mises_max_over_p0", "x1_over_a", "depth_over_a"):
+            numbers[f"sliding_{key}_{mu:g}"] = float(row[key])
+        below = float(row["von_mises_max_over_p0"])
+        numbers[f"sliding_first_yield_{mu:g}"] = float(np.sqrt(3.0)) / max(below, edge)
+        numbers[f"sliding_edge_below_subsurface_{mu:g}"] = 1.0 - edge / below
+    return numbers
+
+
+
+# ------------------------------------------------------------------------ docs/convergence.md
+def _summary(name: str, sequence: str | None = None) -> dict[tuple[str, str, str], dict[str, str]]:
+    import csv
+
+    with open(ROOT / "data" / name, newline="", encoding="utf-8") as f:
+        return {(r["case"], r["sequence"], r["quantity"]): r for r in csv.DictReader(f)
+                if sequence in (None, r["sequence"])}
+
+
+#: The rows of convergence.md's grid table, by the label its table uses.
+GRID_ROWS = {
+    "650 mN, print depth": ("nanoindentation-650mN", "print_depth"),
+    "650 mN, max εp (cell)": ("nanoindentation-650mN", "max_plastic_strain"),
+    "650 mN, peak pressure": ("nanoindentation-650mN", "peak_pressure"),
+    "650 mN, approach": ("nanoindentation-650mN", "approach_at_peak_load"),
+    "190 mN, print depth": ("nanoindentation-190mN", "print_depth"),
+    "190 mN, max εp (refined)": ("nanoindentation-190mN", "max_plastic_strain_refined"),
+    "linear 650 mN, print depth": ("nanoindentation-linear-650mN", "print_depth"),
+}
+PRESS = "dent-from-indentation-press"
+
+
+def convergence_grid(out: Path) -> dict[str, float]:
+    """docs/convergence.md's spatial results, read back from ``data/convergence.csv`` and
+    ``data/convergence-summary.csv`` (regenerated by ``python pipelines/convergence.py``, the
+    command of data/README.md), and the increment orders' ranges over its first table."""
+    import csv
+
+    record = _import("pipelines", "record_doc_numbers")
+    after, before = _summary("convergence-summary.csv"), _summary(
+        "convergence-backward-euler-summary.csv")
+    numbers: dict[str, float] = {}
+    for index, (case, quantity) in enumerate(GRID_ROWS.values()):
+        for sequence in ("lateral", "layers"):
+            row = after[(case, sequence, quantity)]
+            numbers[f"grid_{index}_{sequence}_order"] = float(row["order"])
+            numbers[f"grid_{index}_{sequence}_error"] = float(row["shipped_error"])
+    first = list(record.CONVERGENCE_ROWS.values())
+    orders = [float(before[(c, "increments", q)]["order"]) for c, q in first]
+    numbers["increments_be_order_min"] = min(orders)
+    numbers["increments_be_order_max"] = max(orders)
+    second = [float(after[(c, "increments", q)]["order"]) for c, q in first
+              if c != "nanoindentation-linear-650mN"]
+    numbers["increments_order_min"], numbers["increments_order_max"] = min(second), max(second)
+    for name, table in (("be", before), ("after", after)):
+        for case in ("nanoindentation-650mN", PRESS):
+            row = table[(case, "increments", "print_depth")]
+            numbers[f"increments_{name}_{case}_print_depth_limit"] = float(row["limit"])
+            numbers[f"increments_{name}_{case}_print_depth_uncertainty"] = float(
+                row["relative_uncertainty"])
+    for quantity in ("print_depth", "peak_pressure"):  # the three errors, if they add
+        numbers[f"summed_error_650mN_{quantity}"] = sum(float(after[(
+            "nanoindentation-650mN", sequence, quantity)]["shipped_error"])
+            for sequence in ("lateral", "layers", "increments"))
+        row = after[(PRESS, "lateral", quantity)]
+        numbers[f"press_lateral_{quantity}_order"] = float(row["order"])
+        numbers[f"press_lateral_{quantity}_error"] = float(row["shipped_error"])
+    with open(ROOT / "data" / "convergence.csv", newline="", encoding="utf-8") as f:
+        levels = [r for r in csv.DictReader(f) if r["sequence"] in ("layers", "depth")]
+    for r in levels:
+        if r["sequence"] == "layers" and (r["case"], r["quantity"]) in (
+                (PRESS, "print_depth"), (PRESS, "max_plastic_strain"),
+                (PRESS, "residual_s33_layer1_axis"),
+                ("nanoindentation-650mN", "max_plastic_strain_depth")):
+            numbers[f"layers_{r['case']}_{r['quantity']}_{r['nz']}"] = float(r["value"])
+    spread: dict[tuple[str, str], list[float]] = {}
+    for r in levels:
+        if r["sequence"] == "depth" and r["value"]:
+            spread.setdefault((r["case"], r["quantity"]), []).append(float(r["value"]))
+    numbers["depth_sequence_largest_change"] = max(
+        (max(v) - min(v)) / max(abs(x) for x in v) for v in spread.values() if any(v))
+    return numbers
+
+
+GROUPS = {
+    "convergence_grid": ("fast", convergence_grid),
+    "sliding_hertz": ("fast", sliding_hertz),
+    "initial_stress_von_mises": ("fast", initial_stress_von_mises),
+    "dent_from_indentation": ("slow", dent_from_indentation),
+}
