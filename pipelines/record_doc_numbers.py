@@ -368,6 +368,8 @@ GROUPS: dict[str, tuple[str, Callable[[Path], dict[str, float]]]] = {
     "dent_hydrostatic": ("fast", dent_hydrostatic),
     "eshelby_sphere": ("fast", eshelby_sphere),
     "convergence_grid": GROUPS_B["convergence_grid"],
+    "dent_hydrostatic_prose": GROUPS_B["dent_hydrostatic_prose"],
+    "dent_hydrostatic_runs": GROUPS_B["dent_hydrostatic_runs"],
 }
 
 
