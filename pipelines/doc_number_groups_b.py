@@ -71,10 +71,10 @@ def dent_from_indentation(out: Path) -> dict[str, float]:
     return numbers
 
 
-def _case(path: str, overrides: tuple[str, ...] = ()):
+def _case(path: str, overrides: tuple[str, ...] = (), check: bool = True):
     from sacflow.storage.case_file import load_case
 
-    return load_case(ROOT / path, list(overrides))
+    return load_case(ROOT / path, list(overrides), check_files=check)
 
 
 #: σR / p0 of docs/initial-states.md's table (the cases of ``tests/test_initial_state.py``: a
@@ -133,6 +133,8 @@ def initial_stress_von_mises(out: Path) -> dict[str, float]:
     on_axis = [r for r in AXIS_SCAN if hertz_with_initial_stress(r)[1] == 0.0]
     numbers["initial_stress_axis_last"] = min(on_axis)
     numbers["initial_stress_axis_first_off"] = max(r for r in AXIS_SCAN if r < min(on_axis))
+    numbers["initial_stress_axis_leaves"] = (numbers["initial_stress_axis_last"]
+                                             + numbers["initial_stress_axis_first_off"]) / 2.0
     return numbers
 
 
@@ -356,7 +358,61 @@ def convergence_grid(out: Path) -> dict[str, float]:
     return numbers
 
 
+
+# ------------------------------------------------------------ case numbers (sacflow validate)
+#: The shear yield stress k of the rolling-cycles cases: σY / √3 with σY = 1000 MPa [Pa].
+K_CYCLES = 1000e6 / np.sqrt(3.0)
+
+
+def _campaign_cases(path: str) -> list[tuple[float, float]]:
+    """(load, roll distance) of each case of a zipped campaign sweep."""
+    import tomllib
+
+    sweep = tomllib.loads((ROOT / path).read_text(encoding="utf-8"))["sweep"][0]["parameters"]
+    return list(zip(sweep["load_path.0.to"], sweep["load_path.1.distance"], strict=True))
+
+
+def case_numbers(out: Path) -> dict[str, float]:
+    """Numbers the docs derive from shipped case files: Hertz a and p0 (``sacflow validate``),
+    layer thicknesses and first layer centres, yield stresses of their hardening laws, the
+    Dundurs constant of a rigid counter-body, the initial residual stress at a depth."""
+    from sacflow.config.hardening_laws import hardening_from_schema, kinematic_from_schema
+    from sacflow.config.solver_inputs import solver_inputs
+    from sacflow.mechanics.hertz import first_yield
+
+    numbers: dict[str, float] = {}
+    for name in ("sliding-hertz", "rolling-smooth", "dent-rolling", "rolling-cycles-shakedown",
+                 "rolling-cycles-ratcheting", "dent-rolling-cycles"):
+        hertz = _case(f"configs/{name}.toml").hertz()
+        numbers[f"{name}_a"], numbers[f"{name}_p0"] = hertz.a, hertz.p0
+        numbers[f"{name}_p0_over_k"] = hertz.p0 / K_CYCLES
+    smooth = _case("configs/rolling-smooth.toml")
+    grid = solver_inputs(smooth).grid
+    numbers["rolling-smooth_layer_over_a"] = grid.depth / grid.nz / smooth.hertz().a
+    numbers["rolling-smooth_yield"] = float(hardening_from_schema(
+        smooth.body.hardening).yield_stress(0.0))
+    numbers["rolling-smooth_first_yield_depth"] = first_yield(0.3)[1] * smooth.hertz().a
+    hardened = _case("configs/case-hardened-rolling.toml").body.initial_residual_stress
+    numbers["case_hardened_stress_at_peak_depth"] = float(np.interp(
+        numbers["rolling-smooth_first_yield_depth"], hardened.depth, hardened.s11))
+    rolling = _case("pipelines/dent-from-indentation-geometric.toml", (), check=False)
+    numbers["dent_indentation_rolling_first_layer"] = rolling.grid.depth / rolling.grid.nz / 2.0
+    numbers["dent_indentation_rolling_p0"] = rolling.hertz().p0
+    dent = _case("configs/dent-rolling.toml").body.hardening
+    numbers["dent_swift_at_7_percent"] = float(hardening_from_schema(dent).yield_stress(0.07))
+    kinematic = kinematic_from_schema(_case("configs/dent-rolling-cycles.toml").body.hardening)
+    numbers["dent_cycles_backstress_saturation"] = kinematic.modulus / kinematic.recall
+    numbers["rigid_dundurs_beta"] = (1.0 - 2.0 * 0.3) / (2.0 * (1.0 - 0.3))
+    for load, distance in _campaign_cases("configs/campaign-rolling-cycles.toml"):
+        case = _case("configs/rolling-cycles-shakedown.toml", (f"load_path.0.to={load}",))
+        label = f"{case.hertz().p0 / K_CYCLES:.2f}"
+        numbers[f"cycles_campaign_p0_over_k_{label}"] = case.hertz().p0 / K_CYCLES
+        numbers[f"cycles_campaign_track_over_a_{label}"] = distance / case.hertz().a
+    return numbers
+
+
 GROUPS = {
+    "case_numbers": ("fast", case_numbers),
     "dent_hydrostatic_prose": ("fast", dent_hydrostatic_prose),
     "dent_hydrostatic_runs": ("slow", dent_hydrostatic_runs),
     "convergence_grid": ("fast", convergence_grid),

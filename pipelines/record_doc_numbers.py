@@ -370,6 +370,9 @@ GROUPS: dict[str, tuple[str, Callable[[Path], dict[str, float]]]] = {
     "convergence_grid": GROUPS_B["convergence_grid"],
     "dent_hydrostatic_prose": GROUPS_B["dent_hydrostatic_prose"],
     "dent_hydrostatic_runs": GROUPS_B["dent_hydrostatic_runs"],
+    "sliding_hertz": GROUPS_B["sliding_hertz"],
+    "case_numbers": GROUPS_B["case_numbers"],
+    "initial_stress_von_mises": GROUPS_B["initial_stress_von_mises"],
 }
 
 
