@@ -68,6 +68,13 @@ def dent_from_indentation(out: Path) -> dict[str, float]:
             for what in ("", "_x1", "_x2", "_depth"):
                 numbers[f"dent_indentation_{name}_track_max{what}_{label}"] = float(
                     index[f"{name}_track_max{what}"])
+    peak = [numbers[f"dent_indentation_peak_pressure_{k}"] for k in ("rolling", "geometric")]
+    numbers["dent_indentation_peak_over_p0"] = peak[1] / numbers["dent_indentation_smooth_p0"]
+    numbers["dent_indentation_peak_spread"] = (max(peak) - min(peak)) / max(peak)
+    numbers["dent_indentation_dang_van_drop"] = 1.0 - numbers["dent_indentation_dang_van_ratio"]
+    numbers["dent_indentation_crossland_ratio"] = (
+        numbers["dent_indentation_crossland_track_max_rolling"]
+        / numbers["dent_indentation_crossland_track_max_geometric"] - 1.0)
     return numbers
 
 
@@ -284,6 +291,68 @@ def sliding_hertz(out: Path) -> dict[str, float]:
 
 
 
+def _after_rolling(path: Path, a: float) -> dict[str, float]:
+    """A rolling run after the pass (its last step, unloaded): the largest εp, its depth, the
+    εp-weighted mean depth and the shallowest plastic layer (in a), the most compressive
+    residual σ11 and the largest residual surface displacement on the track centre (x2 = 0),
+    and the largest von Mises stress over the yield stress of the stored steps."""
+    import xarray as xr
+
+    with xr.open_dataset(path) as ds:
+        last = ds.isel(step=-1)
+        eqps = last["equivalent_plastic_strain"].transpose("x1", "x2", "x3").values
+        x3 = ds["x3"].values
+        plastic = eqps.max(axis=(0, 1)) > 0.0
+        k = np.unravel_index(int(np.argmax(eqps)), eqps.shape)[2]
+        centre = last.sel(x2=0.0, method="nearest")
+        ratio = (ds["von_mises"] / ds["yield_stress"]).max()
+        weights = eqps.sum(axis=(0, 1))
+        return {
+            "max_eqps": float(eqps.max()), "max_eqps_depth": float(x3[k] / a),
+            "mean_depth": float((weights * x3).sum() / weights.sum() / a) if plastic.any()
+            else np.nan,
+            "shallowest_plastic": float(x3[plastic].min() / a) if plastic.any() else np.nan,
+            "first_layer": float(x3[0] / a),
+            "min_residual_s11": float(centre["residual_stress"].sel(component="11").min()),
+            "residual_displacement": float(centre["residual_displacement"].max()),
+            "von_mises_over_yield": float(ratio),
+        }
+
+
+def case_hardened_rolling(out: Path) -> dict[str, float]:
+    """docs/initial-states.md: configs/rolling-smooth.toml and configs/case-hardened-rolling.toml
+    at their shipped grid (24 × 24 × 11, 177 steps; a minute or two)."""
+    from sacflow.runner import run_case
+
+    numbers: dict[str, float] = {}
+    for name in ("rolling-smooth", "case-hardened-rolling"):
+        case = _case(f"configs/{name}.toml")
+        path = run_case(case, out, progress=False).path
+        after = _after_rolling(path, case.hertz().a)
+        numbers |= {f"{name}_{k}": v for k, v in after.items()}
+        numbers[f"{name}_max_eqps_depth_m"] = after["max_eqps_depth"] * case.hertz().a
+    return numbers
+
+
+#: Traction coefficients of configs/campaign-rolling-traction.toml.
+TRACTION_MU = (0.0, 0.1, 0.2, 0.3, 0.4, 0.5)
+
+
+def rolling_traction_campaign(out: Path) -> dict[str, float]:
+    """docs/friction.md: configs/campaign-rolling-traction.toml's six cases (its base,
+    rolling-smooth-traction, at each μ; a few minutes), after the pass."""
+    from sacflow.runner import run_case
+
+    numbers: dict[str, float] = {}
+    for mu in TRACTION_MU:
+        case = _case("configs/rolling-smooth-traction.toml",
+                     (f"friction.coefficient={mu}", f"name=rolling-traction-mu{mu:g}"))
+        after = _after_rolling(run_case(case, out, progress=False).path, case.hertz().a)
+        numbers |= {f"traction_mu{mu:g}_{k}": v for k, v in after.items()}
+    return numbers
+
+
+
 # ------------------------------------------------------------------------ docs/convergence.md
 def _summary(name: str, sequence: str | None = None) -> dict[tuple[str, str, str], dict[str, str]]:
     import csv
@@ -412,6 +481,8 @@ def case_numbers(out: Path) -> dict[str, float]:
 
 
 GROUPS = {
+    "case_hardened_rolling": ("slow", case_hardened_rolling),
+    "rolling_traction_campaign": ("slow", rolling_traction_campaign),
     "case_numbers": ("fast", case_numbers),
     "dent_hydrostatic_prose": ("fast", dent_hydrostatic_prose),
     "dent_hydrostatic_runs": ("slow", dent_hydrostatic_runs),

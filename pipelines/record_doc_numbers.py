@@ -373,6 +373,9 @@ GROUPS: dict[str, tuple[str, Callable[[Path], dict[str, float]]]] = {
     "sliding_hertz": GROUPS_B["sliding_hertz"],
     "case_numbers": GROUPS_B["case_numbers"],
     "initial_stress_von_mises": GROUPS_B["initial_stress_von_mises"],
+    "dent_from_indentation": GROUPS_B["dent_from_indentation"],
+    "case_hardened_rolling": GROUPS_B["case_hardened_rolling"],
+    "rolling_traction_campaign": GROUPS_B["rolling_traction_campaign"],
 }
 
 
