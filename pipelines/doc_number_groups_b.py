@@ -331,6 +331,8 @@ def case_hardened_rolling(out: Path) -> dict[str, float]:
         after = _after_rolling(path, case.hertz().a)
         numbers |= {f"{name}_{k}": v for k, v in after.items()}
         numbers[f"{name}_max_eqps_depth_m"] = after["max_eqps_depth"] * case.hertz().a
+    numbers["case-hardened-rolling_margin"] = 1.0 - numbers[
+        "case-hardened-rolling_von_mises_over_yield"]
     return numbers
 
 
@@ -480,7 +482,118 @@ def case_numbers(out: Path) -> dict[str, float]:
     return numbers
 
 
+
+# ---------------------------------------------------------------------------- docs/fatigue.md
+def _rolled_elastic(out: Path) -> Path:
+    """tests/test_fatigue_stage.py's run: an elastic sphere (R = 20 mm, 4200 N) rolled 4.6 mm
+    over an elastic flat, 24 × 24 cells over ±1.5 a, 16 layers over 1 mm, 90 roll steps."""
+    from sacflow.runner import run_case
+    from sacflow.storage.case_file import case_from_dict
+
+    steel = {"E": 210e9, "nu": 0.3}
+    case = {"name": "fatigue-stage-check",
+            "body": {**steel, "hardening": {"law": "elastic"}},
+            "counterbody": {"kind": "elastic", **steel, "radius": 20e-3},
+            "grid": {"nx": 24, "ny": 24, "nz": 16, "half_width": 1.5, "depth": 1.0e-3},
+            "load_path": [{"kind": "load", "to": 4200.0, "increments": 2},
+                          {"kind": "roll", "distance": 4.6e-3, "steps": 90},
+                          {"kind": "unload", "to": 0.0, "increments": 1}]}
+    return run_case(case_from_dict(case), out, progress=False).path
+
+
+def fatigue_stage_check(out: Path) -> dict[str, float]:
+    """docs/fatigue.md's check of the stage on an elastic rolling run against Huber's Hertz
+    field at the run's load positions (seconds): spread along the track, agreement below
+    0.3 a, in the first layer and at the maximum, and the finely sampled depths of the maxima."""
+    import xarray as xr
+
+    from sacflow.compare.fatigue_index import DEFAULT_LIMITS, fatigue
+    from sacflow.mechanics.fatigue_criteria import fatigue_indices
+    from sacflow.mechanics.hertz import composite_modulus, hertz_contact, hertz_subsurface_stress
+
+    path = _rolled_elastic(out)
+    result = fatigue(path)
+    e_star = composite_modulus(210e9, 0.3, 210e9, 0.3)
+    a = hertz_contact(4200.0, 20e-3, e_star).a
+    with xr.open_dataset(path) as ds:
+        x1, x3 = ds["x1"].values, ds["x3"].values
+        start, end = ds["load_x1"].values.min(), ds["load_x1"].values.max()
+        middle = (x1 > start + 2.0 * a) & (x1 < end - 2.0 * a)
+        history = np.zeros((ds.sizes["step"], int(middle.sum()), x3.size, 6))
+        for t, (w, l1, l2) in enumerate(zip(ds["load"].values, ds["load_x1"].values,
+                                            ds["load_x2"].values, strict=True)):
+            if w > 0.0:
+                h = hertz_contact(float(w), 20e-3, e_star)
+                history[t] = hertz_subsurface_stress((x1[middle] - l1)[:, None], -l2,
+                                                     x3[None, :], h.a, h.p0, 0.3)
+    dang_van, crossland = fatigue_indices(history, DEFAULT_LIMITS, time_axis=0)
+    centre = {name: result[name].sel(x2=0.0, method="nearest").values[middle]
+              for name in ("dang_van", "sqrt_j2_amplitude")}
+    index = centre["dang_van"]
+    spread = (index.max(axis=0) - index.min(axis=0)) / index.mean(axis=0)
+    numbers = {"fatigue_check_rolled_over_a": (end - start) / a,
+               "fatigue_check_layer_over_a": x3[1] - x3[0],
+               "fatigue_check_spread": float(spread.max()),
+               "fatigue_check_spread_at_max": float(spread[int(np.argmax(index.mean(axis=0)))])}
+    numbers["fatigue_check_layer_over_a"] /= a
+    deep = x3 >= 0.3 * a
+    for name, hertz in (("dang_van", dang_van.index), ("sqrt_j2_amplitude", crossland.sqrt_j2a)):
+        run, closed = centre[name].mean(axis=0), hertz.mean(axis=0)
+        numbers[f"fatigue_check_{name}_deep"] = float(np.max(np.abs(run[deep] / closed[deep] - 1)))
+        numbers[f"fatigue_check_{name}_first_layer"] = float(abs(run[0] / closed[0] - 1.0))
+        numbers[f"fatigue_check_{name}_at_max"] = float(abs(run.max() / closed.max() - 1.0))
+    h = hertz_contact(4200.0, 20e-3, e_star)
+    fine = hertz_subsurface_stress((np.linspace(-6.0, 6.0, 961) * a)[:, None], 0.0,
+                                   (np.linspace(0.05, 1.2, 231) * a)[None, :], h.a, h.p0, 0.3)
+    fine_dv, fine_cr = fatigue_indices(fine, DEFAULT_LIMITS, time_axis=0)
+    depths = np.linspace(0.05, 1.2, 231)
+    numbers["fatigue_check_dang_van_depth"] = float(depths[np.argmax(fine_dv.index)])
+    numbers["fatigue_check_sqrt_j2a_depth"] = float(depths[np.argmax(fine_cr.sqrt_j2a)])
+    return numbers
+
+
+
+def iso_fatigue_finer(out: Path) -> dict[str, float]:
+    """docs/fatigue.md's indices at ISO's limit (p0 = 1.5 GPa, default limits) sampled as the
+    doc says (961 positions over ±6 a, depths every 0.005 a) and twice as finely in both, over
+    0.30–0.50 a where both maxima lie: the largest change of either index (seconds)."""
+    from sacflow.compare.fatigue_index import DEFAULT_LIMITS
+    from sacflow.mechanics.fatigue_criteria import fatigue_indices
+    from sacflow.mechanics.hertz import hertz_subsurface_stress
+
+    maxima = []
+    for positions, step in ((961, 0.005), (1921, 0.0025)):
+        x1 = np.linspace(-6.0, 6.0, positions)
+        x3 = np.arange(round(0.30 / step), round(0.50 / step) + 1) * step
+        stress = hertz_subsurface_stress(x1[:, None], 0.0, x3[None, :], 1.0, 1.5e9, 0.3)
+        dang_van, crossland = fatigue_indices(stress, DEFAULT_LIMITS, time_axis=0)
+        maxima.append(np.array([dang_van.index.max(), crossland.index.max()]))
+    return {"iso_finer_sampling_change": float(np.abs(maxima[1] - maxima[0]).max())}
+
+
+#: Numbers the docs derive from other rows' recorded values (the rows' own groups recompute
+#: those): key -> (function of the recorded values by key, the keys it reads).
+DERIVED = {
+    "dent_fatigue_spread": (lambda v: abs(v[0] - v[1]) / v[1],
+                            ("dent_fatigue_dang_van_32", "dent_fatigue_dang_van_40")),
+}
+
+
+def recorded_arithmetic(out: Path) -> dict[str, float]:
+    """Ratios and differences the docs state of numbers recorded in data/doc_numbers.csv."""
+    import csv
+
+    with open(ROOT / "data" / "doc_numbers.csv", newline="", encoding="utf-8") as f:
+        recorded = {r["key"]: float(r["value"]) for r in csv.DictReader(
+            line for line in f if not line.startswith("#"))}
+    return {key: float(rule([recorded[k] for k in keys]))
+            for key, (rule, keys) in DERIVED.items()}
+
+
 GROUPS = {
+    "iso_fatigue_finer": ("fast", iso_fatigue_finer),
+    "recorded_arithmetic": ("fast", recorded_arithmetic),
+    "fatigue_stage_check": ("fast", fatigue_stage_check),
     "case_hardened_rolling": ("slow", case_hardened_rolling),
     "rolling_traction_campaign": ("slow", rolling_traction_campaign),
     "case_numbers": ("fast", case_numbers),

@@ -376,6 +376,9 @@ GROUPS: dict[str, tuple[str, Callable[[Path], dict[str, float]]]] = {
     "dent_from_indentation": GROUPS_B["dent_from_indentation"],
     "case_hardened_rolling": GROUPS_B["case_hardened_rolling"],
     "rolling_traction_campaign": GROUPS_B["rolling_traction_campaign"],
+    "fatigue_stage_check": GROUPS_B["fatigue_stage_check"],
+    "iso_fatigue_finer": GROUPS_B["iso_fatigue_finer"],
+    "recorded_arithmetic": GROUPS_B["recorded_arithmetic"],
 }
 
 
