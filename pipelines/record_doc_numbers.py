@@ -32,6 +32,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "pipelines"))
 from doc_number_groups_b import GROUPS as GROUPS_B  # noqa: E402  (a sibling script)
+from doc_number_groups_b_runs import GROUPS as RUNS_B  # noqa: E402  (a sibling script)
 
 TABLE = ROOT / "data" / "doc_numbers.csv"
 COLUMNS = ["key", "file", "quoted", "number", "unit", "scale", "value", "tolerance", "group",
@@ -369,13 +370,13 @@ GROUPS: dict[str, tuple[str, Callable[[Path], dict[str, float]]]] = {
     "eshelby_sphere": ("fast", eshelby_sphere),
     "convergence_grid": GROUPS_B["convergence_grid"],
     "dent_hydrostatic_prose": GROUPS_B["dent_hydrostatic_prose"],
-    "dent_hydrostatic_runs": GROUPS_B["dent_hydrostatic_runs"],
+    "dent_hydrostatic_runs": RUNS_B["dent_hydrostatic_runs"],
     "sliding_hertz": GROUPS_B["sliding_hertz"],
     "case_numbers": GROUPS_B["case_numbers"],
     "initial_stress_von_mises": GROUPS_B["initial_stress_von_mises"],
-    "dent_from_indentation": GROUPS_B["dent_from_indentation"],
-    "case_hardened_rolling": GROUPS_B["case_hardened_rolling"],
-    "rolling_traction_campaign": GROUPS_B["rolling_traction_campaign"],
+    "dent_from_indentation": RUNS_B["dent_from_indentation"],
+    "case_hardened_rolling": RUNS_B["case_hardened_rolling"],
+    "rolling_traction_campaign": RUNS_B["rolling_traction_campaign"],
     "fatigue_stage_check": GROUPS_B["fatigue_stage_check"],
     "iso_fatigue_finer": GROUPS_B["iso_fatigue_finer"],
     "recorded_arithmetic": GROUPS_B["recorded_arithmetic"],
