@@ -307,7 +307,32 @@ def shakedown_table(out: Path) -> dict[str, float]:
 
 
 
+
+#: Load increments of docs/convergence.md's backward-Euler print depths (unloading: half).
+EULER_INCREMENTS = (10, 20, 40, 80)
+
+
+def backward_euler_increments(out: Path) -> dict[str, float]:
+    """docs/convergence.md: the 650 mN print depth with one backward-Euler step per increment
+    at 32² × 12 cells (the study's box depth) for 10, 20, 40 and 80 load increments (minutes)."""
+    from sacflow.config.solver_inputs import simulation_for
+    from sacflow.studies.convergence import STUDY_CASES, base_case, shipped_discretisation
+
+    study = STUDY_CASES["nanoindentation-650mN"]
+    depth = shipped_discretisation(base_case(study)).depth
+    numbers: dict[str, float] = {}
+    for n in EULER_INCREMENTS:
+        case = base_case(study, [
+            "grid.nx=32", "grid.ny=32", "grid.nz=12", f"grid.depth={depth!r}",
+            "solver.return_integration=backward_euler", f"load_path.0.increments={n}",
+            f"load_path.1.increments={n // 2}"])
+        last = list(simulation_for(case).run())[-1]
+        numbers[f"euler_print_depth_{n}"] = float(last.surface["residual_displacement"].max())
+    return numbers
+
+
 GROUPS = {
+    "backward_euler_increments": ("slow", backward_euler_increments),
     "dent_rolling_cycles": ("slow", dent_rolling_cycles),
     "shakedown_table": ("slow", shakedown_table),
     "rolling_cycles": ("slow", rolling_cycles),

@@ -380,6 +380,7 @@ GROUPS: dict[str, tuple[str, Callable[[Path], dict[str, float]]]] = {
     "fatigue_stage_check": GROUPS_B["fatigue_stage_check"],
     "iso_fatigue_finer": GROUPS_B["iso_fatigue_finer"],
     "recorded_arithmetic": GROUPS_B["recorded_arithmetic"],
+    "backward_euler_increments": RUNS_B["backward_euler_increments"],
 }
 
 
