@@ -211,6 +211,34 @@ def sliding_hertz(out: Path) -> dict[str, float]:
 
 
 
+def traction_kernels(out: Path) -> dict[str, float]:
+    """docs/friction.md's kernel checks, as ``tests/test_traction_kernels.py`` makes them
+    (seconds): Cerruti's point force against Johnson's form at its 500 random points (ν = 0,
+    0.3, 0.45, 0.5), the rectangle against quadrature of the point force at its field points
+    (four rectangles, ν = 0, 0.3, 0.45): largest error over the largest component."""
+    from sacflow.kernels.shear import cerruti_stress, rectangle_shear_stress
+
+    test = import_script("tests", "test_traction_kernels")
+    points = test.random_points(500, 1)
+    point_errors = []
+    for nu in (0.0, 0.3, 0.45, 0.5):
+        ref = test.johnson_cerruti(*points.T, nu)
+        point_errors.append(float((np.abs(cerruti_stress(*points.T, nu) - ref).max(-1)
+                                   / np.abs(ref).max(-1)).max()))
+    worst, component = 0.0, -1
+    for h1, h2 in test.RECTANGLES:
+        for nu in (0.0, 0.3, 0.45):
+            pts = np.array(test.field_points(h1, h2))
+            got = rectangle_shear_stress(pts[:, 0], pts[:, 1], pts[:, 2], h1, h2, nu)
+            ref = np.array([test.quadrature(*q, h1, h2, nu) for q in pts])
+            err = np.abs(got - ref) / np.abs(ref).max(-1)[:, None]
+            if err.max() > worst:
+                worst, component = float(err.max()), int(np.argmax(err.max(axis=0)))
+    return {"cerruti_point_error": max(point_errors), "rectangle_error": worst,
+            "rectangle_error_component": float(component)}
+
+
+
 # ------------------------------------------------------------------------ docs/convergence.md
 def _summary(name: str, sequence: str | None = None) -> dict[tuple[str, str, str], dict[str, str]]:
     import csv
@@ -448,6 +476,7 @@ def recorded_arithmetic(out: Path) -> dict[str, float]:
 
 
 GROUPS = {
+    "traction_kernels": ("fast", traction_kernels),
     "iso_fatigue_finer": ("fast", iso_fatigue_finer),
     "recorded_arithmetic": ("fast", recorded_arithmetic),
     "fatigue_stage_check": ("fast", fatigue_stage_check),

@@ -381,6 +381,7 @@ GROUPS: dict[str, tuple[str, Callable[[Path], dict[str, float]]]] = {
     "iso_fatigue_finer": GROUPS_B["iso_fatigue_finer"],
     "recorded_arithmetic": GROUPS_B["recorded_arithmetic"],
     "backward_euler_increments": RUNS_B["backward_euler_increments"],
+    "traction_kernels": GROUPS_B["traction_kernels"],
 }
 
 
