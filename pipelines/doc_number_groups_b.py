@@ -461,7 +461,12 @@ def iso_fatigue_finer(out: Path) -> dict[str, float]:
 DERIVED = {
     "dent_fatigue_spread": (lambda v: abs(v[0] - v[1]) / v[1],
                             ("dent_fatigue_dang_van_32", "dent_fatigue_dang_van_40")),
+    "shakedown_ceiling_under_literature": (lambda v: PONTER_LIMIT / v[0] - 1.0,
+                                           ("shakedown_point_ceiling",)),
 }
+#: The free-rolling shakedown limit of a sphere under the Hertz pressure, in k (Ponter, Hearle
+#: & Johnson, J. Mech. Phys. Solids 33 (1985) 339).
+PONTER_LIMIT = 4.7
 
 
 def recorded_arithmetic(out: Path) -> dict[str, float]:
