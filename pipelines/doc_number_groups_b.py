@@ -463,6 +463,9 @@ DERIVED = {
                             ("dent_fatigue_dang_van_32", "dent_fatigue_dang_van_40")),
     "shakedown_ceiling_under_literature": (lambda v: PONTER_LIMIT / v[0] - 1.0,
                                            ("shakedown_point_ceiling",)),
+    "melan_crossing": (lambda v: 5.0 + 0.5 * (v[0] - 1.0) / (v[0] - v[1]),
+                       ("melan_5.0k_load_factor", "melan_5.5k_load_factor")),
+    "cycles_3.5_decay_factor": (lambda v: 1.0 / v[0], ("cycles_3.5_ratio_6",)),
 }
 #: The free-rolling shakedown limit of a sphere under the Hertz pressure, in k (Ponter, Hearle
 #: & Johnson, J. Mech. Phys. Solids 33 (1985) 339).
