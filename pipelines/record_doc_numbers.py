@@ -382,6 +382,9 @@ GROUPS: dict[str, tuple[str, Callable[[Path], dict[str, float]]]] = {
     "recorded_arithmetic": GROUPS_B["recorded_arithmetic"],
     "backward_euler_increments": RUNS_B["backward_euler_increments"],
     "traction_kernels": GROUPS_B["traction_kernels"],
+    "rolling_cycles": RUNS_B["rolling_cycles"],
+    "dent_rolling_cycles": RUNS_B["dent_rolling_cycles"],
+    "shakedown_table": RUNS_B["shakedown_table"],
 }
 
 
