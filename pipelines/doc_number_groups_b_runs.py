@@ -331,7 +331,31 @@ def backward_euler_increments(out: Path) -> dict[str, float]:
     return numbers
 
 
+
+def melan_steps(out: Path) -> dict[str, float]:
+    """``sacflow compare melan --step`` over every full-load rolling step of the sixth pass at
+    nominal 5.0 and 5.5 k (the runs of ``rolling_cycles``, made here if absent; a few minutes):
+    λ per step, keyed by step number."""
+    import xarray as xr
+
+    from sacflow.compare import melan
+
+    cases = dict(zip(CYCLES_LABELS, campaign_cases("configs/campaign-rolling-cycles.toml"),
+                     strict=True))
+    numbers: dict[str, float] = {}
+    for label in ("5.0", "5.5"):
+        path = _cycles_run(out, label, *cases[label])
+        with xr.open_dataset(path) as ds:
+            full = ds["load"].values >= ds["load"].values.max() * (1.0 - 1e-12)
+            last = ds["pass"].values == ds["pass"].values.max()
+            steps = [int(k) for k in ds["step"].values[full & last]]
+        for step in steps:
+            numbers[f"melan_steps_{label}_{step}"] = float(melan(path, step=step)["load_factor"])
+    return numbers
+
+
 GROUPS = {
+    "melan_steps": ("slow", melan_steps),
     "backward_euler_increments": ("slow", backward_euler_increments),
     "dent_rolling_cycles": ("slow", dent_rolling_cycles),
     "shakedown_table": ("slow", shakedown_table),

@@ -385,6 +385,7 @@ GROUPS: dict[str, tuple[str, Callable[[Path], dict[str, float]]]] = {
     "rolling_cycles": RUNS_B["rolling_cycles"],
     "dent_rolling_cycles": RUNS_B["dent_rolling_cycles"],
     "shakedown_table": RUNS_B["shakedown_table"],
+    "melan_steps": RUNS_B["melan_steps"],
 }
 
 
