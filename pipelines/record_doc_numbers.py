@@ -39,6 +39,10 @@ import doc_number_groups_a as groups_a  # noqa: E402  (README.md, compare, dent 
 import doc_number_groups_c as groups_c  # noqa: E402  (inclusions: own hardening)
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "pipelines"))
+from doc_number_groups_b import GROUPS as GROUPS_B  # noqa: E402  (a sibling script)
+from doc_number_groups_b_runs import GROUPS as RUNS_B  # noqa: E402  (a sibling script)
+
 TABLE = ROOT / "data" / "doc_numbers.csv"
 COLUMNS = ["key", "file", "quoted", "number", "unit", "scale", "value", "tolerance", "group",
            "method", "grid", "speed"]
@@ -388,6 +392,24 @@ GROUPS: dict[str, tuple[str, Callable[[Path], dict[str, float]]]] = {
     "own_hardening_checks": ("fast", groups_c.own_hardening_checks),
     "own_hardening_material_point": ("slow", groups_c.own_hardening_material_point),
     "own_hardening_cost": ("slow", groups_c.own_hardening_cost),
+    "convergence_grid": GROUPS_B["convergence_grid"],
+    "dent_hydrostatic_prose": GROUPS_B["dent_hydrostatic_prose"],
+    "dent_hydrostatic_runs": RUNS_B["dent_hydrostatic_runs"],
+    "sliding_hertz": GROUPS_B["sliding_hertz"],
+    "case_numbers": GROUPS_B["case_numbers"],
+    "initial_stress_von_mises": GROUPS_B["initial_stress_von_mises"],
+    "dent_from_indentation": RUNS_B["dent_from_indentation"],
+    "case_hardened_rolling": RUNS_B["case_hardened_rolling"],
+    "rolling_traction_campaign": RUNS_B["rolling_traction_campaign"],
+    "fatigue_stage_check": GROUPS_B["fatigue_stage_check"],
+    "iso_fatigue_finer": GROUPS_B["iso_fatigue_finer"],
+    "recorded_arithmetic": GROUPS_B["recorded_arithmetic"],
+    "backward_euler_increments": RUNS_B["backward_euler_increments"],
+    "traction_kernels": GROUPS_B["traction_kernels"],
+    "rolling_cycles": RUNS_B["rolling_cycles"],
+    "dent_rolling_cycles": RUNS_B["dent_rolling_cycles"],
+    "shakedown_table": RUNS_B["shakedown_table"],
+    "melan_steps": RUNS_B["melan_steps"],
 }
 
 

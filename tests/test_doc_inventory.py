@@ -22,8 +22,7 @@ prints it). The failure message lists the uncovered tokens with their line: the 
 ``docs/performance.md`` is exempt as a whole: it is a dated log of machine measurements (wall
 times, memory) of ``benchmarks/*.py``, which change with the machine and cannot be recomputed
 to their digits; every figure there is a ``measurement`` by construction, and the test checks
-that the page says so. The files of ``PENDING`` are not checked yet (their rows are being
-added); the list empties as they are.
+that the page says so.
 """
 
 from __future__ import annotations
@@ -43,10 +42,6 @@ FILES = ["README.md", "docs/architecture.md", "docs/campaigns.md", "docs/case-fo
          "docs/compare.md", "docs/convergence.md", "docs/dent-study.md", "docs/fatigue.md",
          "docs/friction.md", "docs/inclusions.md", "docs/initial-states.md",
          "docs/performance.md", "docs/repeated-rolling.md"]
-#: Docs whose rows are still being added: skipped until they are (then removed from here).
-PENDING = ["docs/initial-states.md", "docs/friction.md", "docs/repeated-rolling.md",
-           "docs/convergence.md", "docs/fatigue.md", "docs/case-format.md",
-           "docs/architecture.md"]
 #: Exempt as a whole, with the sentence each must contain to say why.
 EXEMPT = {"docs/performance.md": "python benchmarks/<name>.py"}
 #: What a row of data/doc_inputs.csv may be: an input of a shipped case, campaign or example; a
@@ -142,13 +137,11 @@ def uncovered(name: str) -> list[str]:
 def test_files_are_every_doc():
     docs = {"README.md"} | {f"docs/{p.name}" for p in (ROOT / "docs").glob("*.md")}
     assert set(FILES) == docs
-    assert set(PENDING) <= set(FILES) and set(EXEMPT) <= set(FILES)
+    assert set(EXEMPT) <= set(FILES)
 
 
 @pytest.mark.parametrize("name", FILES)
 def test_every_number_token_is_computed_or_declared(name):
-    if name in PENDING:
-        pytest.skip(f"{name}: its rows are pending (tests/test_doc_inventory.py PENDING)")
     if name in EXEMPT:
         text = (ROOT / name).read_text(encoding="utf-8")
         assert EXEMPT[name] in text and "measured" in text, (
