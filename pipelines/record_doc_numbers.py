@@ -392,6 +392,7 @@ GROUPS: dict[str, tuple[str, Callable[[Path], dict[str, float]]]] = {
     "own_hardening_checks": ("fast", groups_c.own_hardening_checks),
     "own_hardening_material_point": ("slow", groups_c.own_hardening_material_point),
     "own_hardening_cost": ("slow", groups_c.own_hardening_cost),
+    "convergence_together": ("fast", groups_c.convergence_together),
     "convergence_grid": GROUPS_B["convergence_grid"],
     "dent_hydrostatic_prose": GROUPS_B["dent_hydrostatic_prose"],
     "dent_hydrostatic_runs": RUNS_B["dent_hydrostatic_runs"],
