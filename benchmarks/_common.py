@@ -47,7 +47,8 @@ def isolated(func: Callable[..., dict], *args: Any) -> dict:
 HARDENING = {"mild": (8.4696e9 / 2, 0.05 * 210e9), "strong": (1655.6e6, 21e9)}
 
 
-def hertz_step_case(n: int, scheme: str = "coupled", hardening: str = "mild") -> dict:
+def hertz_step_case(n: int, scheme: str = "coupled", hardening: str = "mild",
+                    increments: int = 1) -> dict:
     """One elastic-plastic load step of a rigid sphere on linear hardening, n × n × n/2 box.
 
     R = 105 µm, W = 0.65 N (Hertz p0 = 8.47 GPa), E = 210 GPa, ν = 0.3, linear hardening of
@@ -63,7 +64,7 @@ def hertz_step_case(n: int, scheme: str = "coupled", hardening: str = "mild") ->
                                "modulus": modulus}},
         "counterbody": {"kind": "rigid", "radius": 105e-6},
         "grid": {"nx": n, "ny": n, "nz": n // 2, "half_width": 1.5},
-        "load_path": [{"kind": "load", "to": 0.65, "increments": 1}],
+        "load_path": [{"kind": "load", "to": 0.65, "increments": increments}],
         "solver": {"plasticity_tolerance": 1e-6, "scheme": scheme},
     }
 
