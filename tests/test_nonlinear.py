@@ -29,9 +29,16 @@ def below_tol(x, ev: Evaluation) -> bool:
 
 def linear_problem(n: int = 40, radius: float = 0.95, seed: int = 0):
     """G(x) = A x + b with A symmetric, spectral radius ``radius``: x* = (I − A)⁻¹ b."""
+    return symmetric_problem(np.linspace(-radius, radius, n), seed)
+
+
+def symmetric_problem(eigenvalues: np.ndarray, seed: int):
+    """G(x) = A x + b, A symmetric with the given eigenvalues (random eigenvectors and b);
+    returns the evaluation, x* = (I − A)⁻¹ b and the list of calls."""
+    n = len(eigenvalues)
     rng = np.random.default_rng(seed)
     q, _ = np.linalg.qr(rng.standard_normal((n, n)))
-    a = q @ np.diag(np.linspace(-radius, radius, n)) @ q.T
+    a = q @ np.diag(eigenvalues) @ q.T
     b = rng.standard_normal(n)
     calls = []
 
@@ -208,18 +215,7 @@ def slow_directions_problem(n: int = 40, seed: int = 0):
     grid (nothing changes state, yet ``I − G'`` has eigenvalues near 0): a depth-5 Anderson
     history keeps forgetting them and plateaus; a deeper one spans them.
     """
-    rng = np.random.default_rng(seed)
-    q, _ = np.linalg.qr(rng.standard_normal((n, n)))
-    a = q @ np.diag(1.0 - np.geomspace(1.0, 1e-3, n)) @ q.T
-    b = rng.standard_normal(n)
-    calls = []
-
-    def evaluate(x):
-        calls.append(1)
-        gx = a @ x + b
-        return Evaluation(gx, relative(gx, x))
-
-    return evaluate, np.linalg.solve(np.eye(n) - a, b), calls
+    return symmetric_problem(1.0 - np.geomspace(1.0, 1e-3, n), seed)
 
 
 def below_1e6(x, ev: Evaluation) -> bool:
