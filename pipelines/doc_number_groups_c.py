@@ -173,9 +173,13 @@ def own_hardening_cost(out: Path) -> dict[str, float]:
     return numbers
 
 
+#: The cases of the together table -> the prefix of their keys.
+TOGETHER_CASES = {"nanoindentation-650mN": "together", "nanoindentation-190mN": "together_190mN",
+                  "nanoindentation-linear-650mN": "together_linear"}
 #: docs/convergence.md's table of the together sequence: quantity -> key stem.
 TOGETHER = {"print_depth": "print_depth", "peak_pressure": "peak_pressure",
-            "max_plastic_strain": "max_eqps", "approach_at_peak_load": "approach"}
+            "max_plastic_strain": "max_eqps", "approach_at_peak_load": "approach",
+            "max_plastic_strain_refined": "max_eqps_refined"}
 
 
 def convergence_together(out: Path) -> dict[str, float]:
@@ -190,20 +194,26 @@ def convergence_together(out: Path) -> dict[str, float]:
         with open(ROOT / "data" / name, newline="", encoding="utf-8") as f:
             return list(csv.DictReader(f))
 
-    summary = {r["quantity"]: r for r in rows("convergence-together-summary.csv")}
-    levels = rows("convergence-together.csv")
     numbers: dict[str, float] = {}
-    for quantity, stem in TOGETHER.items():
-        row = summary[quantity]
-        numbers[f"together_{stem}_order"] = float(row["order"])
-        numbers[f"together_{stem}_limit"] = float(row["limit"])
-        numbers[f"together_{stem}_uncertainty"] = float(row["relative_uncertainty"])
-        numbers[f"together_{stem}_shipped_error"] = float(row["shipped_error"])
-        finest = [r for r in levels if r["quantity"] == quantity and r["level"] == "2"]
-        numbers[f"together_{stem}_finest_error"] = float(finest[0]["relative_error"])
-    for r in levels:
-        if r["quantity"] == "residual_s11_axis_min":
-            numbers[f"together_s11_axis_min_{r['level']}"] = float(r["value"])
+    for case, prefix in TOGETHER_CASES.items():
+        summary = {r["quantity"]: r for r in rows("convergence-together-summary.csv")
+                   if r["case"] == case}
+        levels = [r for r in rows("convergence-together.csv") if r["case"] == case]
+        if not summary:  # a case of the table not run (yet)
+            continue
+        for quantity, stem in TOGETHER.items():
+            row = summary[quantity]
+            if not row["order"]:  # no order: an oscillating or diverging sequence
+                continue
+            numbers[f"{prefix}_{stem}_order"] = float(row["order"])
+            numbers[f"{prefix}_{stem}_limit"] = float(row["limit"])
+            numbers[f"{prefix}_{stem}_uncertainty"] = float(row["relative_uncertainty"])
+            numbers[f"{prefix}_{stem}_shipped_error"] = float(row["shipped_error"])
+            finest = [r for r in levels if r["quantity"] == quantity and r["level"] == "2"]
+            numbers[f"{prefix}_{stem}_finest_error"] = float(finest[0]["relative_error"])
+        for r in levels:
+            if r["quantity"] == "residual_s11_axis_min":
+                numbers[f"{prefix}_s11_axis_min_{r['level']}"] = float(r["value"])
     return numbers
 
 
