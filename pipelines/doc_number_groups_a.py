@@ -417,3 +417,20 @@ def dent_grid_change(out: Path) -> dict[str, float]:
     numbers["dent_grid_change"] = abs(numbers["dent_grid_max_40"] / numbers["dent_grid_max_32"]
                                       - 1.0)
     return numbers
+
+
+#: The groups of this module: name -> (speed, function of the output folder).
+GROUPS = {
+    "readme_cases": ("fast", readme_cases),
+    "hertz_check_grids": ("fast", hertz_check_grids),
+    "dent_study_setup": ("fast", dent_study_setup),
+    "inclusion_setup": ("fast", inclusion_setup),
+    "inclusion_hertz_runs": ("fast", inclusion_hertz_runs),
+    "eshelby_iterations": ("fast", eshelby_iterations),
+    "dent_study": ("slow", dent_study),
+    "dent_vertical": ("fast", dent_vertical),
+    "inclusion_campaign": ("slow", inclusion_campaign),
+    "dent_rolling_inclusion": ("slow", dent_rolling_inclusion),
+    "inclusion_benchmark": ("slow", inclusion_benchmark),
+    "dent_grid_change": ("slow", dent_grid_change),
+}

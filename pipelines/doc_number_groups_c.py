@@ -217,6 +217,15 @@ def convergence_together(out: Path) -> dict[str, float]:
     return numbers
 
 
+#: The groups of this module: name -> (speed, function of the output folder).
+GROUPS = {
+    "own_hardening_checks": ("fast", own_hardening_checks),
+    "own_hardening_material_point": ("slow", own_hardening_material_point),
+    "own_hardening_cost": ("slow", own_hardening_cost),
+    "convergence_together": ("fast", convergence_together),
+}
+
+
 if __name__ == "__main__":
     size = int(sys.argv[1]) if len(sys.argv) > 1 else COST_GRID
     print(json.dumps({c: cost_step(size, c) for c in COST_CONFIGURATIONS}, indent=2))
