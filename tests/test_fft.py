@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 import scipy.fft
-from numpy.testing import assert_allclose
+from numpy.testing import assert_allclose, assert_array_equal
 
 from sacflow.kernels.convolution import next_regular
 from sacflow.kernels.cuboid import PARITY
@@ -108,8 +108,13 @@ def test_depth_sums_equal_numpy_contraction():
     imaginary = np.array([1, 1, 1, 1, 1j, 1j])[None, :, None, None, None]
     expected = np.einsum("dmab,qdmab->qab", spec, imaginary * full)
     out = np.full((Q, L1, L2h), np.nan, dtype=complex)
-    depth_sums(spec, kernels, out)
+    depth_sums(spec, kernels, out, 0, L1)
     assert_allclose(out, expected, rtol=1e-13, atol=1e-13)
+    split = np.full((Q, L1, L2h), np.nan, dtype=complex)
+    depth_sums(spec, kernels, split, 2, L1)  # rows of a second thread: only those written
+    assert np.isnan(split[:, :2]).all()
+    depth_sums(spec, kernels, split, 0, 2)
+    assert_array_equal(split, out)  # the same sums in the same order, whatever the split
 
 
 def test_pyfftw_is_imported_without_dask_array_and_scipy_fft_which_stay_importable():

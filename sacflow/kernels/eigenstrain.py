@@ -84,7 +84,7 @@ from sacflow.kernels.eigenstrain_spectra import EVEN, KERNEL_VERSION, ODD, kerne
 from sacflow.kernels.fft import RealFFT, RealToReal, default_threads
 from sacflow.machine.kernel_cache import cached_arrays
 from sacflow.machine.resources import available_memory
-from sacflow.machine.threads import contiguous_ranges
+from sacflow.machine.threads import contiguous_ranges, over_ranges
 
 __all__ = [
     "HalfSpaceEigenstrain",
@@ -198,12 +198,10 @@ class HalfSpaceEigenstrain:
         n1, n2, n3 = self.shape
         if eps.shape != (n1, n2, n3, 6):
             raise ValueError(f"eigenstrain must have shape {(n1, n2, n3, 6)}, got {eps.shape}")
-        lines = self._lateral.real[:, :, :n1, :n2]
-        layers = np.moveaxis(eps, (3, 2), (0, 1))
-        lines[EVEN, :n3] = layers[EVEN]
-        lines[EVEN, n3:] = 0.0
-        lines[ODD, 1:n3 + 1] = layers[ODD]
-        lines[ODD, n3 + 1:] = 0.0
+        from sacflow.kernels.layer_lines import lines_from_box
+
+        over_ranges(lines_from_box, n1, self.threads, np.ascontiguousarray(eps),
+                    self._lateral.real[:, :, :n1, :n2], weight=n2 * n3)
         for transform in self._depth_forward:
             transform()
         return self._lateral.forward()
@@ -217,7 +215,8 @@ class HalfSpaceEigenstrain:
         sums = np.empty((kernels.shape[0], *spectrum.shape[2:]), dtype=complex)
         from sacflow.kernels.pair_products import depth_sums
 
-        depth_sums(spectrum, kernels, sums)
+        over_ranges(depth_sums, spectrum.shape[2], self.threads, spectrum, kernels, sums,
+                    weight=spectrum.shape[1] * spectrum.shape[3])
         fields = np.empty((kernels.shape[0], n1, n2))
         for q, spectrum2 in enumerate(sums):
             self._fft2.spectrum[0] = spectrum2
@@ -313,10 +312,11 @@ class HalfSpaceEigenstrain:
         self._lateral.inverse()
         for transform in self._depth_inverse:
             transform()
-        lines = self._lateral.real[:, :, :n1, :n2]
+        from sacflow.kernels.layer_lines import box_from_lines
+
         stress = np.empty((n1, n2, n3, 6))
-        stress[..., EVEN] = np.moveaxis(lines[EVEN, :n3], (0, 1), (3, 2))
-        stress[..., ODD] = np.moveaxis(lines[ODD, 1:n3 + 1], (0, 1), (3, 2))
+        over_ranges(box_from_lines, n1, self.threads, self._lateral.real[:, :, :n1, :n2],
+                    stress, weight=n2 * n3)
         return stress
 
 

@@ -106,9 +106,12 @@ def pair_products(spec: np.ndarray, kernels: np.ndarray, inv_weight: np.ndarray,
 
 
 @numba.njit(nogil=True, fastmath=True, cache=True, boundscheck=False)
-def depth_sums(spec: np.ndarray, kernels: np.ndarray,
-               out: np.ndarray) -> None:  # pragma: no cover - compiled (tested via Python)
+def depth_sums(spec: np.ndarray, kernels: np.ndarray, out: np.ndarray, first: int,
+               last: int) -> None:  # pragma: no cover - compiled (tested via Python)
     """``out_q = Σ_d Σ_m spec_d(m) kernels_qd(m)``: surface fields from depth spectra.
+
+    Written for the rows first ≤ k1 < last of the lateral frequencies (threads share the rows
+    out between them; each row's sum runs in the same order whatever the split).
 
     Parameters
     ----------
@@ -118,16 +121,16 @@ def depth_sums(spec: np.ndarray, kernels: np.ndarray,
         Q sets of surface kernels (e.g. traction and displacement), summed in one pass; those
         of the components 13 and 23 are imaginary, stored divided by ``i``.
     out : complex ndarray (Q, L1, L2h)
-        The lateral spectra of the Q surface fields (overwritten).
+        The lateral spectra of the Q surface fields (rows first … last − 1 overwritten).
     """
     Q, M, L1, L2h = kernels.shape[0], spec.shape[1], spec.shape[2], spec.shape[3]
     half = kernels.shape[3]
-    out[...] = 0.0
+    out[:, first:last] = 0.0
     for d in range(6):
         # kernels of the components even in x3 are real; of 13 and 23 imaginary, stored / i
         factor = 1.0 + 0j if d < 4 else 1j
         for m in range(M):
-            for i in range(L1):
+            for i in range(first, last):
                 # mirrored rows: the kernels of 12 and 13 (odd in x1) change sign
                 ii, flip = (i, factor) if i < half else (L1 - i, factor * PARITY_X1[d])
                 for q in range(Q):

@@ -8,7 +8,9 @@ inside :func:`single_threaded_blas`; the limit is lifted again on exit, so a not
 work is unaffected.
 
 The loops of the kernels' set-up are shared out between threads here too
-(:func:`contiguous_ranges`, :func:`in_threads`).
+(:func:`contiguous_ranges`, :func:`in_threads`), and so are the compiled passes over the cuboid
+box that run at every evaluation of a plastic increment (:func:`over_ranges`, on a pool kept for
+the process).
 """
 
 from __future__ import annotations
@@ -23,7 +25,13 @@ from typing import Any
 import numpy as np
 from threadpoolctl import ThreadpoolController
 
-__all__ = ["contiguous_ranges", "in_threads", "single_threaded_blas"]
+__all__ = ["SPLIT_ITEMS", "contiguous_ranges", "in_threads", "over_ranges",
+           "single_threaded_blas"]
+
+#: Passes over fewer items than this run on the calling thread alone: handing a part to
+#: another thread costs tens of microseconds, what a compiled loop spends on a few thousand
+#: items.
+SPLIT_ITEMS = 1 << 14
 
 
 def _controller() -> ThreadpoolController:
@@ -73,3 +81,30 @@ def in_threads(function: Callable[..., None], threads: int,
     count = len(arguments[0])
     with ThreadPoolExecutor(max(1, min(threads, count)), "sacflow-kernels") as pool:
         list(pool.map(function, *arguments))
+
+
+@functools.cache
+def _pool(threads: int) -> ThreadPoolExecutor:
+    """Return the process's pool of ``threads`` threads for :func:`over_ranges` (made once)."""
+    return ThreadPoolExecutor(threads, "sacflow-ranges")
+
+
+def over_ranges(kernel: Callable[..., Any], count: int, threads: int, *arguments: Any,
+                weight: int = 1) -> list[Any]:
+    """Call ``kernel(*arguments, first, last)`` on contiguous ranges of ``0 … count − 1``.
+
+    The ranges (:func:`contiguous_ranges`, one per thread) run at once, the first on the
+    calling thread, the others on a pool kept for the process; the results come back in range
+    order. ``kernel`` must release the GIL (a ``nogil`` compiled loop) and write only its own
+    range of the outputs, so that the result does not depend on the number of threads.
+    ``count × weight`` below :data:`SPLIT_ITEMS` (``weight``: items per index, e.g. the cells
+    of a row) runs as one range on the calling thread.
+    """
+    if threads <= 1 or count * weight < SPLIT_ITEMS or count < 2:
+        return [kernel(*arguments, 0, count)]
+    ranges = contiguous_ranges(count, threads)
+    pool = _pool(len(ranges) - 1)
+    futures = [pool.submit(kernel, *arguments, first, last) for first, last in ranges[1:]]
+    results = [kernel(*arguments, *ranges[0])]
+    results.extend(future.result() for future in futures)
+    return results

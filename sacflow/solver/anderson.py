@@ -13,6 +13,14 @@ from collections import deque
 
 import numpy as np
 
+from sacflow.solver.vector_passes import (
+    gather_differences,
+    mix_start,
+    mix_subtract,
+    new_nonzeros,
+    scatter_support,
+)
+
 __all__ = ["AndersonMixer"]
 
 
@@ -33,6 +41,9 @@ class AndersonMixer:
     so is the next iterate. The plastic strain increment is nonzero in the plastic zone only,
     a small part of the cuboid box (a tenth at 128 × 128 × 64 cuboids): the history takes that
     part of the memory and of the time of full vectors, with the same result to rounding.
+    The passes over the vectors (gathers, differences, the mixing, the scatter back) are
+    compiled loops shared out between threads (:mod:`sacflow.solver.vector_passes`) with
+    numpy's operations in numpy's order: the iterates are those of the numpy expressions.
     """
 
     def __init__(self, depth: int = 5, mixing: float = 1.0):
@@ -79,11 +90,10 @@ class AndersonMixer:
         kept = self._kept
         if kept is None:
             kept = self._kept = np.zeros(x.size, dtype=bool)
+        if not new_nonzeros(x, gx, kept):
+            return
         new = x != 0.0
         new |= gx != 0.0
-        new &= ~kept
-        if not new.any():
-            return
         new |= kept
         support = np.flatnonzero(new)  # sorted: the union of the old support and the nonzeros
         where = np.flatnonzero(kept[support])  # places of the old entries in the new support
@@ -126,19 +136,19 @@ class AndersonMixer:
         if self.depth == 0:
             plain: np.ndarray = x + self.mixing * (gx - x)
             return plain
+        x, gx = np.ascontiguousarray(x, dtype=float), np.ascontiguousarray(gx, dtype=float)
         self._grow_support(x, gx)
         support = self._support
-        xs, gs = x[support], gx[support]
-        f = gs - xs
-        if self._last_x is not None and self._last_f is not None:
-            self._append(xs - self._last_x, f - self._last_f)
+        last = None if self._last_x is None or self._last_f is None else (self._last_x,
+                                                                         self._last_f)
+        xs, f, dx, df = gather_differences(x, gx, support, last)
+        if dx is not None and df is not None:
+            self._append(dx, df)
         self._last_x, self._last_f = xs, f
-        mixed = xs + self.mixing * f
+        mixed = mix_start(xs, f, self.mixing)
         if self._df:
             rhs = np.array([float(col @ f) for col in self._df])
             gamma = np.linalg.pinv(self._gram, rcond=1e-13, hermitian=True) @ rhs
-            for g, dx, df in zip(gamma, self._dx, self._df, strict=True):
-                mixed -= g * (dx + self.mixing * df)
-        out = np.zeros_like(x)
-        out[support] = mixed
-        return out
+            for g, dx_k, df_k in zip(gamma, self._dx, self._df, strict=True):
+                mix_subtract(mixed, dx_k, df_k, float(g), self.mixing)
+        return scatter_support(mixed, support, x.size)

@@ -27,13 +27,14 @@ from sacflow.solver.nonlinear import (
     solve_fixed_point,
 )
 from sacflow.solver.operators import Operators
+from sacflow.solver.vector_passes import largest_magnitudes, trial_stress
 
 if TYPE_CHECKING:
     from scipy.sparse.linalg import LinearOperator
 
     from sacflow.solver.inclusion import EquivalentInclusion
 
-__all__ = ["FD_STEP", "TINY", "PlasticFixedPoint", "PlasticUpdate", "largest_magnitude"]
+__all__ = ["FD_STEP", "TINY", "PlasticFixedPoint", "PlasticUpdate"]
 
 #: Smallest scale of a relative residual (guards the division when everything is zero).
 TINY = 1e-300
@@ -46,11 +47,6 @@ FD_STEP = 1e-6
 
 #: The elastic stress of an increment ``x`` and the residual-stress applications it took.
 StressOf = Callable[[np.ndarray], tuple[np.ndarray, int]]
-
-
-def largest_magnitude(a: np.ndarray) -> float:
-    """``max |a|`` without a box-size temporary (NaN if ``a`` holds one, as ``np.abs(a).max()``)."""
-    return float(np.maximum(a.max(), -a.min()))
 
 
 @dataclass(frozen=True)
@@ -170,16 +166,16 @@ class PlasticFixedPoint:
             nonlocal applications
             stress, apps = sigma(x)
             applications += apps
-            trial = np.multiply(x, 2.0 * mu)  # σ + 2μx: box-size arrays, one temporary
-            trial += stress
+            trial = trial_stress(x, stress, 2.0 * mu)  # σ + 2μx
             ret, full = self._return(trial, equivalent, backstress, start_stress)
             gx = ret.plastic_strain_increment
             own = None
             if inclusion is not None:
                 own = self._inclusion_part(ret, full, (x, stress, trial), step,
                                            (equivalent, backstress), start_stress)
-            scale = max(largest_magnitude(gx), largest_magnitude(x), strain_scale)
-            return Evaluation(gx, largest_magnitude(gx - x) / scale, (trial, full, ret, own))
+            largest_x, largest_gx, largest_change = largest_magnitudes(x, gx)
+            scale = max(largest_gx, largest_x, strain_scale)
+            return Evaluation(gx, largest_change / scale, (trial, full, ret, own))
 
         def jacobian(x: np.ndarray, ev: Evaluation) -> LinearOperator:
             """``I − T (A + 2μ)``: ``T`` the return's algorithmic tangent, ``A`` residual stress."""

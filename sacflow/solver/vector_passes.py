@@ -1,0 +1,168 @@
+"""Compiled passes over the plastic fixed point's vectors, shared out between threads.
+
+An evaluation of an increment's fixed point (:mod:`sacflow.solver.fixed_point`) and its
+Anderson step (:mod:`sacflow.solver.anderson`) make a dozen elementwise passes over vectors of
+the box's size (six components per cuboid) or of the plastic zone's: the trial stress, the
+residual's norms, the gathers and scatters between the box and the support of the history, the
+mixing of the stored differences. As numpy expressions each is a pass of its own with a
+temporary, on one thread, while the FFTs around them use every core. Here each is one compiled
+loop over a range of the vector (:func:`sacflow.machine.threads.over_ranges` runs the ranges in
+threads), with the same floating-point operations in the same order as the numpy expressions
+they replace, so the iterates do not change, whatever the number of threads.
+
+Every function takes ``first, last`` (the range) as its last two arguments.
+"""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from sacflow.kernels.fft import default_threads
+from sacflow.machine.threads import over_ranges
+
+__all__ = ["gather_differences", "largest_magnitudes", "mix_start", "mix_subtract",
+           "new_nonzeros", "scatter_support", "threads", "trial_stress"]
+
+
+def threads() -> int:
+    """Threads of these passes: those of the FFTs (``SACFLOW_FFT_THREADS`` or the cores)."""
+    return default_threads()
+
+
+@numba.njit(nogil=True, cache=True, boundscheck=False)
+def _trial_stress(x: np.ndarray, stress: np.ndarray, two_mu: float, out: np.ndarray,
+                  first: int, last: int) -> None:  # pragma: no cover - compiled
+    for i in range(first, last):
+        out[i] = x[i] * two_mu + stress[i]
+
+
+def trial_stress(x: np.ndarray, stress: np.ndarray, two_mu: float) -> np.ndarray:
+    """``σ + 2μ x`` (the elastic trial stress of a plastic strain increment ``x``), same shape."""
+    out = np.empty(stress.shape)  # C order: its flat view is itself
+    over_ranges(_trial_stress, x.size, threads(), x.reshape(-1), stress.reshape(-1), two_mu,
+                out.reshape(-1))
+    return out
+
+
+@numba.njit(nogil=True, cache=True, boundscheck=False)
+def _magnitudes(a: np.ndarray, b: np.ndarray, first: int,
+                last: int) -> tuple[float, float, float]:  # pragma: no cover - compiled
+    largest_a = largest_b = largest_change = 0.0
+    nan = False
+    for i in range(first, last):
+        u, v = a[i], b[i]
+        nan |= (u != u) | (v != v)
+        largest_a = max(largest_a, abs(u))
+        largest_b = max(largest_b, abs(v))
+        largest_change = max(largest_change, abs(v - u))
+    if nan:
+        return np.nan, np.nan, np.nan
+    return largest_a, largest_b, largest_change
+
+
+def largest_magnitudes(a: np.ndarray, b: np.ndarray) -> tuple[float, float, float]:
+    """``(max |a|, max |b|, max |b − a|)`` in one pass (NaN for all three if one holds a NaN).
+
+    Exact whatever the split: a maximum does not depend on the order it is taken in.
+    """
+    parts = over_ranges(_magnitudes, a.size, threads(), a.reshape(-1), b.reshape(-1))
+    values = np.array(parts).max(axis=0)  # NaN wins, as it does in numpy's maximum
+    return float(values[0]), float(values[1]), float(values[2])
+
+
+@numba.njit(nogil=True, cache=True, boundscheck=False)
+def _new_nonzeros(x: np.ndarray, gx: np.ndarray, kept: np.ndarray, first: int,
+                  last: int) -> int:  # pragma: no cover - compiled
+    count = 0
+    for i in range(first, last):
+        if not kept[i] and (x[i] != 0.0 or gx[i] != 0.0):
+            count += 1
+    return count
+
+
+def new_nonzeros(x: np.ndarray, gx: np.ndarray, kept: np.ndarray) -> int:
+    """Entries where ``x`` or ``gx`` is nonzero and ``kept`` is False (flat arrays)."""
+    return sum(over_ranges(_new_nonzeros, x.size, threads(), x, gx, kept))
+
+
+@numba.njit(nogil=True, cache=True, boundscheck=False)
+def _gather_differences(x: np.ndarray, gx: np.ndarray, support: np.ndarray,
+                        last_x: np.ndarray, last_f: np.ndarray, xs: np.ndarray, f: np.ndarray,
+                        dx: np.ndarray, df: np.ndarray, first: int,
+                        last: int) -> None:  # pragma: no cover - compiled
+    differences = dx.size > 0
+    for k in range(first, last):
+        s = support[k]
+        xk = x[s]
+        fk = gx[s] - xk
+        xs[k] = xk
+        f[k] = fk
+        if differences:
+            dx[k] = xk - last_x[k]
+            df[k] = fk - last_f[k]
+
+
+def gather_differences(x: np.ndarray, gx: np.ndarray, support: np.ndarray,
+                       last: tuple[np.ndarray, np.ndarray] | None
+                       ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray | None]:
+    """Gather the iterate and its residual on the support, and their differences.
+
+    Returns ``xs = x[s]``, ``f = G(x)[s] − xs`` and, given the previous ``(xs, f)`` as
+    ``last``, ``Δx = xs − xs_prev`` and ``Δf = f − f_prev`` (else None for both).
+    """
+    size = support.size
+    xs, f = np.empty(size), np.empty(size)
+    empty = np.empty(0)
+    dx, df = (np.empty(size), np.empty(size)) if last is not None else (empty, empty)
+    last_x, last_f = last if last is not None else (empty, empty)
+    over_ranges(_gather_differences, size, threads(), x, gx, support, last_x, last_f, xs, f,
+                dx, df)
+    return xs, f, (dx if last is not None else None), (df if last is not None else None)
+
+
+@numba.njit(nogil=True, cache=True, boundscheck=False)
+def _mix_start(xs: np.ndarray, f: np.ndarray, beta: float, out: np.ndarray, first: int,
+               last: int) -> None:  # pragma: no cover - compiled
+    for k in range(first, last):
+        out[k] = xs[k] + beta * f[k]
+
+
+def mix_start(xs: np.ndarray, f: np.ndarray, beta: float) -> np.ndarray:
+    """``xs + β f``: the relaxed Picard iterate that the mixing corrects."""
+    out = np.empty_like(xs)
+    over_ranges(_mix_start, xs.size, threads(), xs, f, beta, out)
+    return out
+
+
+@numba.njit(nogil=True, cache=True, boundscheck=False)
+def _mix_subtract(mixed: np.ndarray, dx: np.ndarray, df: np.ndarray, gamma: float,
+                  beta: float, first: int, last: int) -> None:  # pragma: no cover - compiled
+    for k in range(first, last):
+        mixed[k] -= gamma * (dx[k] + beta * df[k])
+
+
+def mix_subtract(mixed: np.ndarray, dx: np.ndarray, df: np.ndarray, gamma: float,
+                 beta: float) -> None:
+    """``mixed −= γ (Δx + β Δf)`` in place: one stored difference's share of the step."""
+    over_ranges(_mix_subtract, mixed.size, threads(), mixed, dx, df, gamma, beta)
+
+
+@numba.njit(nogil=True, cache=True, boundscheck=False)
+def _scatter_support(values: np.ndarray, support: np.ndarray, out: np.ndarray, first: int,
+                     last: int) -> None:  # pragma: no cover - compiled
+    k = np.searchsorted(support, first)
+    size = support.size
+    for i in range(first, last):
+        if k < size and support[k] == i:
+            out[i] = values[k]
+            k += 1
+        else:
+            out[i] = 0.0
+
+
+def scatter_support(values: np.ndarray, support: np.ndarray, size: int) -> np.ndarray:
+    """Return the ``size``-entry vector holding ``values`` on the (sorted) support, 0 off it."""
+    out = np.empty(size)
+    over_ranges(_scatter_support, size, threads(), values, support, out)
+    return out
