@@ -161,3 +161,31 @@ def test_points_yielding_only_in_the_second_half_are_extrapolated():
     got = extrapolated_return(start, trial, p, law, MU)
     exact_dp = (1.5 * trial[0, 0] - SIGMA_Y) / (3.0 * MU + law.modulus)
     assert got.equivalent_plastic_strain_increment[0] == pytest.approx(exact_dp, rel=1e-12)
+
+
+@pytest.mark.parametrize("name", ["linear", "swift"])
+@pytest.mark.parametrize("threads", [2, 3])
+def test_returns_shared_out_between_threads_equal_the_single_thread_ones(monkeypatch, threads,
+                                                                         name):
+    """The compiled returns split their points between threads: each point's arithmetic is
+    its own, so any split gives the single-thread result bit for bit (step-doubled and one-step,
+    increments and returned stresses), iteration counts included."""
+    from sacflow.mechanics import return_extrapolation, return_mapping
+
+    law = law_of(name)
+    start, trial, p = states(23, scale=1.6, points=40_000)
+    results = {}
+    for count in (1, threads):
+        monkeypatch.setattr(return_mapping, "default_threads", lambda count=count: count)
+        monkeypatch.setattr(return_extrapolation, "default_threads", lambda count=count: count)
+        one = return_map(trial, p, law, MU)
+        doubled = extrapolated_return(start, trial, p, law, MU)
+        results[count] = (one, doubled)
+    (one, doubled), (one_split, doubled_split) = results[1], results[threads]
+    assert one.plastic.sum() > 20_000  # enough points for a split (SPLIT_ITEMS)
+    for a, b in ((one, one_split), (doubled, doubled_split)):
+        np.testing.assert_array_equal(a.plastic_strain_increment, b.plastic_strain_increment)
+        np.testing.assert_array_equal(a.equivalent_plastic_strain_increment,
+                                      b.equivalent_plastic_strain_increment)
+        assert a.iterations == b.iterations
+    np.testing.assert_array_equal(one.stress, one_split.stress)

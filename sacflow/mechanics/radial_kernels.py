@@ -79,12 +79,13 @@ def _norm(s0: float, s1: float, s2: float, t3: float, t4: float,
 
 @numba.njit(nogil=True, cache=True, boundscheck=False, error_model="numpy")
 def scaled_deviators_into(stress: FloatArray, idx: IndexArray, factor: FloatArray,
-                          out: FloatArray) -> None:  # pragma: no cover - compiled
-    """Set ``out[idx[k]] = factor[k] · dev(stress[idx[k]])`` for every k (rows of (n, 6)).
+                          out: FloatArray, first: int,
+                          last: int) -> None:  # pragma: no cover - compiled
+    """Set ``out[idx[k]] = factor[k] · dev(stress[idx[k]])`` for first ≤ k < last (rows of (n, 6)).
 
     The plastic strain increment of a radial return, 3/2 Δp s/q_tr, scattered into the box.
     """
-    for k in range(idx.size):
+    for k in range(first, last):
         i = idx[k]
         mean = _mean(stress[i])
         f = factor[k]
@@ -95,13 +96,13 @@ def scaled_deviators_into(stress: FloatArray, idx: IndexArray, factor: FloatArra
 
 
 @numba.njit(nogil=True, cache=True, boundscheck=False, error_model="numpy")
-def returned_into(stress: FloatArray, idx: IndexArray, ratio: FloatArray,
-                  out: FloatArray) -> None:  # pragma: no cover - compiled
+def returned_into(stress: FloatArray, idx: IndexArray, ratio: FloatArray, out: FloatArray,
+                  first: int, last: int) -> None:  # pragma: no cover - compiled
     """Set ``out[idx[k]] = mean(σ) I + ratio[k] · dev(σ)``, σ = ``stress[idx[k]]``.
 
-    The returned stress of a radial return, ratio = σ_Y(p + Δp)/q_tr.
+    The returned stress of a radial return, ratio = σ_Y(p + Δp)/q_tr, for first ≤ k < last.
     """
-    for k in range(idx.size):
+    for k in range(first, last):
         i = idx[k]
         mean = _mean(stress[i])
         r = ratio[k]
@@ -173,7 +174,8 @@ def _deviator_and_norm(t: FloatArray, s: FloatArray) -> tuple[float, float]:  # 
 def step_doubled_points(kind: int, prm: FloatArray, start: FloatArray, trial: FloatArray,
                         p_all: FloatArray, idx: IndexArray, strain_all: FloatArray,
                         dp_all: FloatArray, two_mu: float, w_half: float, w_full: float,
-                        tol: float, max_iter: int) -> tuple[int, int]:  # pragma: no cover
+                        tol: float, max_iter: int, first: int,
+                        last: int) -> tuple[int, int]:  # pragma: no cover
     """Step-doubled radial return at the points ``idx``, in place of their one-step increments.
 
     Per point, with h = ½ (σ_tr − σ_n): the first half returns σ_n + h from p₀ (Δp₁, Δεp₁,
@@ -181,8 +183,9 @@ def step_doubled_points(kind: int, prm: FloatArray, start: FloatArray, trial: Fl
     (Δp₂, Δεp₂); the increment w_half (Δεp₁ + Δεp₂) + w_full Δεp_F (Δεp_F the one-step
     increment in ``strain_all``) and Δp likewise, kept ≥ 0; then one drift-correcting return of
     σ_tr − 2μ Δεp from p₀ + Δp (:mod:`sacflow.mechanics.return_extrapolation`). The results
-    replace ``strain_all[idx]`` and ``dp_all[idx]``. Returns the updates of the slowest
-    Newton iteration and the number of points where one did not converge.
+    replace ``strain_all[idx]`` and ``dp_all[idx]``, for the points idx[first … last − 1] (a
+    thread's share). Returns the updates of the slowest Newton iteration and the number of
+    points where one did not converge.
     """
     three_mu = 1.5 * two_mu
     iterations = 0
@@ -191,7 +194,7 @@ def step_doubled_points(kind: int, prm: FloatArray, start: FloatArray, trial: Fl
     point = np.empty(6)
     s = np.empty(6)
     strain = np.empty(6)
-    for k in range(idx.size):
+    for k in range(first, last):
         i = idx[k]
         p0 = p_all[i]
         for j in range(6):

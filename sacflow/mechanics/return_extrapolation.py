@@ -34,6 +34,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from sacflow.kernels.fft import default_threads
+from sacflow.machine.threads import over_ranges
 from sacflow.mechanics.hardening import HardeningLaw, KinematicLaw
 from sacflow.mechanics.return_mapping import (
     MAX_ITERATIONS,
@@ -50,6 +52,11 @@ FloatArray = NDArray[np.float64]
 #: Weights of the two-half-steps and of the one-step result in the local extrapolation of a
 #: first-order method with step doubling: 2 H − F.
 RICHARDSON_WEIGHTS: tuple[float, float] = (2.0, -1.0)
+
+#: Work of one point of the compiled step-doubled return, in box entries of a plain pass
+#: (three radial returns): what :func:`~sacflow.machine.threads.over_ranges` weighs against
+#: the cost of handing a share of the points to another thread.
+POINT_WEIGHT = 16
 
 
 def extrapolated_return(start_stress: FloatArray, trial_stress: FloatArray,
@@ -98,14 +105,17 @@ def extrapolated_return(start_stress: FloatArray, trial_stress: FloatArray,
     if kinematic is None:
         compiled = compiled_law(law)
         if compiled is not None:  # the whole step doubling per point, in one compiled loop
-            iterations, failed = step_doubled_points(
+            parts = over_ranges(
+                step_doubled_points, idx.size, default_threads(),
                 compiled[0], compiled[1], np.ascontiguousarray(start_stress.reshape(-1, 6)),
                 np.ascontiguousarray(trial_stress.reshape(-1, 6)),
                 np.ascontiguousarray(np.broadcast_to(equivalent_plastic_strain, lead)
                                      .reshape(-1), dtype=float),
                 idx, full.plastic_strain_increment.reshape(-1, 6),
                 full.equivalent_plastic_strain_increment.reshape(-1), 2.0 * mu,
-                *RICHARDSON_WEIGHTS, TOLERANCE, MAX_ITERATIONS)
+                *RICHARDSON_WEIGHTS, TOLERANCE, MAX_ITERATIONS, weight=POINT_WEIGHT)
+            iterations = max(part[0] for part in parts)
+            failed = sum(part[1] for part in parts)
             if failed:
                 raise ReturnMappingError(f"step-doubled return: {failed} points not converged "
                                          f"after {MAX_ITERATIONS} iterations")

@@ -49,6 +49,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from sacflow.kernels.fft import default_threads
+from sacflow.machine.threads import over_ranges
 from sacflow.mechanics.hardening import (
     HardeningLaw,
     KinematicLaw,
@@ -311,12 +313,14 @@ def isotropic_return(sig2: FloatArray, lead: tuple[int, ...], p_old: FloatArray,
     dp_all = np.zeros(q_tr.shape)
     dp_all[idx] = dp
     dep = np.zeros(sig2.shape)
-    scaled_deviators_into(sig2, idx, 1.5 * dp / q_pl, dep)  # Δεp = 3/2 Δp s/q_tr
+    threads = default_threads()
+    over_ranges(scaled_deviators_into, idx.size, threads, sig2, idx, 1.5 * dp / q_pl,
+                dep)  # Δεp = 3/2 Δp s/q_tr
     stress = None
     if with_stress:
         ratio = law.yield_stress(p_old[idx] + dp, d_pl) / q_pl  # s_new = s σ_Y(p + Δp)/q_tr
         stress = sig2.copy()
-        returned_into(sig2, idx, ratio, stress)
+        over_ranges(returned_into, idx.size, threads, sig2, idx, ratio, stress)
         stress = stress.reshape(shape)
     return ReturnResult(stress, dep.reshape(shape), dp_all.reshape(lead), plastic, iterations)
 

@@ -100,9 +100,7 @@ class AndersonMixer:
         self._kept = new
 
         def widened(v: np.ndarray) -> np.ndarray:
-            out = np.zeros(support.size)
-            out[where] = v
-            return out
+            return scatter_support(v, where, support.size)
 
         self._dx = deque((widened(v) for v in self._dx), maxlen=self._dx.maxlen)
         self._df = deque((widened(v) for v in self._df), maxlen=self._df.maxlen)

@@ -44,6 +44,7 @@ from sacflow.solver.inclusion import EquivalentInclusion
 from sacflow.solver.inputs import Material, SolverSettings
 from sacflow.solver.layout import StepPlan
 from sacflow.solver.operators import Operators
+from sacflow.solver.vector_passes import summed
 
 __all__ = ["Increment", "IncrementSolver"]
 
@@ -292,7 +293,8 @@ class IncrementSolver:
             apps = 0 if not x.any() else 1  # the fields of εp_old are known: no application
             stress, u = body.residual_stress, u_old
             if apps and fused:
-                traction, surface_u = ops.eigenstrain.surface_fields(body.plastic_strain + x)
+                traction, surface_u = ops.eigenstrain.surface_fields(summed(body.plastic_strain,
+                                                                           x))
                 u = np.asarray(surface_u)
             elif apps:
                 stress, u = ops.residual_fields(body.plastic_strain + x)

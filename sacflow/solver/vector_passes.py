@@ -22,7 +22,7 @@ from sacflow.kernels.fft import default_threads
 from sacflow.machine.threads import over_ranges
 
 __all__ = ["gather_differences", "largest_magnitudes", "mix_start", "mix_subtract",
-           "new_nonzeros", "scatter_support", "threads", "trial_stress"]
+           "new_nonzeros", "scatter_support", "summed", "threads", "trial_stress"]
 
 
 def threads() -> int:
@@ -35,6 +35,20 @@ def _trial_stress(x: np.ndarray, stress: np.ndarray, two_mu: float, out: np.ndar
                   first: int, last: int) -> None:  # pragma: no cover - compiled
     for i in range(first, last):
         out[i] = x[i] * two_mu + stress[i]
+
+
+@numba.njit(nogil=True, cache=True, boundscheck=False)
+def _total(a: np.ndarray, b: np.ndarray, out: np.ndarray, first: int,
+           last: int) -> None:  # pragma: no cover - compiled
+    for i in range(first, last):
+        out[i] = a[i] + b[i]
+
+
+def summed(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Return ``a + b`` (the plastic strain before an increment plus the increment), one pass."""
+    out = np.empty(a.shape)
+    over_ranges(_total, a.size, threads(), a.reshape(-1), b.reshape(-1), out.reshape(-1))
+    return out
 
 
 def trial_stress(x: np.ndarray, stress: np.ndarray, two_mu: float) -> np.ndarray:
