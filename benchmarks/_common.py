@@ -79,13 +79,14 @@ def timed(func: Callable[[], Any], repeat: int = 3) -> tuple[float, Any]:
     return best, out
 
 
-def emit(name: str, results: list[dict]) -> None:
-    """Print the benchmark JSON document on stdout."""
+def emit(name: str, results: list[dict], **summary: object) -> None:
+    """Print the benchmark JSON document on stdout (``summary``: extra top-level entries)."""
     doc = {
         "benchmark": name,
         "python": sys.version.split()[0],
         "machine": platform.machine(),
         "cpus": mp.cpu_count(),
         "results": results,
+        **summary,
     }
     print(json.dumps(doc, indent=2))

@@ -19,9 +19,12 @@ iterations, the time per plastic iteration (step time over residual-stress appli
 plastic zone (cells with εp > 0, and their share of the box), the peak resident memory of each
 process, and where the set-up's time went (the eigenstrain operator alone). ``--profile`` adds
 the ten functions of the step with the most own time. ``--hardening=mild`` or ``=strong`` runs
-one material only; ``--threads=K`` sets the FFT threads (``SACFLOW_FFT_THREADS``).
-Usage: ``python benchmarks/scale.py [--profile] [--hardening=H] [--threads=K] [n ...]``
-(default 64 128).
+one material only; ``--threads=K`` sets the FFT threads (``SACFLOW_FFT_THREADS``, also the
+threads of the compiled passes over the box); ``--threads=1,2`` runs each thread count in turn
+(``--repeat=R`` times, alternated) and adds ``thread_scaling``: the median step per thread count
+and the speed-up of the most threads over the fewest.
+Usage: ``python benchmarks/scale.py [--profile] [--hardening=H] [--threads=K[,K2]] [--repeat=R]
+[n ...]`` (default 64 128).
 """
 
 from __future__ import annotations
@@ -104,16 +107,43 @@ def one_step(n: int, cache: str, label: str, profile: bool, hardening: str,
     return result
 
 
+def thread_scaling(results: list[dict]) -> list[dict]:
+    """Median step time per thread count, and the fewest threads' over the most threads'."""
+    import statistics
+
+    rows = []
+    keys = sorted({(r["n"], r["hardening"], r["cache"]) for r in results})
+    for n, hardening, cache in keys:
+        times: dict[int, list[float]] = {}
+        for r in results:
+            if (r["n"], r["hardening"], r["cache"]) == (n, hardening, cache):
+                times.setdefault(r["fft_threads"], []).append(r["step_s"])
+        medians = {k: statistics.median(v) for k, v in sorted(times.items())}
+        fewest, most = min(medians), max(medians)
+        rows.append({"n": n, "hardening": hardening, "cache": cache,
+                     "median_step_s": medians, "runs": {k: len(v) for k, v in times.items()},
+                     "speed_up": round(medians[fewest] / medians[most], 3)})
+    return rows
+
+
 if __name__ == "__main__":
     args = [a for a in sys.argv[1:] if not a.startswith("--")]
     options = dict(a[2:].split("=", 1) for a in sys.argv[1:] if a.startswith("--") and "=" in a)
     profile = "--profile" in sys.argv
     materials = [options["hardening"]] if "hardening" in options else ["mild", "strong"]
+    thread_counts: list[str | None] = (options["threads"].split(",") if "threads" in options
+                                       else [None])
+    repeats = int(options.get("repeat", "1"))
     results = []
     for n in [int(a) for a in args] or [64, 128]:
         for hardening in materials:
-            with tempfile.TemporaryDirectory(prefix="sacflow-scale-cache-") as cache:
-                for label in ("cold", "warm"):
-                    results.append(isolated(one_step, n, cache, label, profile, hardening,
-                                            options.get("threads")))
-    emit("scale", results)
+            for _ in range(repeats):
+                for threads in thread_counts:  # alternated: a drift of the machine hits all
+                    with tempfile.TemporaryDirectory(prefix="sacflow-scale-cache-") as cache:
+                        for label in ("cold", "warm"):
+                            results.append(isolated(one_step, n, cache, label, profile,
+                                                    hardening, threads))
+    extra = {}
+    if len(thread_counts) > 1:
+        extra["thread_scaling"] = thread_scaling(results)
+    emit("scale", results, **extra)

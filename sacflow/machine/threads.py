@@ -31,7 +31,7 @@ __all__ = ["SPLIT_ITEMS", "contiguous_ranges", "in_threads", "over_ranges",
 #: Passes over fewer items than this run on the calling thread alone: handing a part to
 #: another thread costs tens of microseconds, what a compiled loop spends on a few thousand
 #: items.
-SPLIT_ITEMS = 1 << 14
+SPLIT_ITEMS = 1 << 17
 
 
 def _controller() -> ThreadpoolController:
