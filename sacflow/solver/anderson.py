@@ -102,8 +102,9 @@ class AndersonMixer:
         def widened(v: np.ndarray) -> np.ndarray:
             return scatter_support(v, where, support.size)
 
-        self._dx = deque((widened(v) for v in self._dx), maxlen=self._dx.maxlen)
-        self._df = deque((widened(v) for v in self._df), maxlen=self._df.maxlen)
+        for history in (self._dx, self._df):  # one at a time: each old vector freed at once
+            for k, v in enumerate(history):
+                history[k] = widened(v)
         if self._last_x is not None and self._last_f is not None:
             self._last_x, self._last_f = widened(self._last_x), widened(self._last_f)
         self._support = support
@@ -139,7 +140,10 @@ class AndersonMixer:
         support = self._support
         last = None if self._last_x is None or self._last_f is None else (self._last_x,
                                                                          self._last_f)
-        xs, f, dx, df = gather_differences(x, gx, support, last)
+        spare = None  # the oldest pair, if the next one drops it: its arrays take the new one
+        if last is not None and self._df and len(self._df) == self._df.maxlen:
+            spare = (self._dx[0], self._df[0])
+        xs, f, dx, df = gather_differences(x, gx, support, last, spare)
         if dx is not None and df is not None:
             self._append(dx, df)
         self._last_x, self._last_f = xs, f

@@ -202,6 +202,7 @@ def solve_fixed_point(
             if mixer is not None:
                 mixer.reset()
         x = ev.gx if mixer is None else mixer.step(x.ravel(), ev.gx.ravel()).reshape(shape)
+        del ev  # its fields (box-size arrays) freed before the next evaluation makes its own
         ev = evaluate(x)
         sweeps += 1
         log.debug("%s sweep %d: residual %.3e", label, iteration, ev.residual)

@@ -106,29 +106,35 @@ def _gather_differences(x: np.ndarray, gx: np.ndarray, support: np.ndarray,
                         dx: np.ndarray, df: np.ndarray, first: int,
                         last: int) -> None:  # pragma: no cover - compiled
     differences = dx.size > 0
-    for k in range(first, last):
+    for k in range(first, last):  # xs may be last_x, f last_f: read each before writing it
         s = support[k]
         xk = x[s]
         fk = gx[s] - xk
-        xs[k] = xk
-        f[k] = fk
         if differences:
             dx[k] = xk - last_x[k]
             df[k] = fk - last_f[k]
+        xs[k] = xk
+        f[k] = fk
 
 
 def gather_differences(x: np.ndarray, gx: np.ndarray, support: np.ndarray,
-                       last: tuple[np.ndarray, np.ndarray] | None
+                       last: tuple[np.ndarray, np.ndarray] | None,
+                       spare: tuple[np.ndarray, np.ndarray] | None = None
                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray | None]:
     """Gather the iterate and its residual on the support, and their differences.
 
     Returns ``xs = x[s]``, ``f = G(x)[s] − xs`` and, given the previous ``(xs, f)`` as
-    ``last``, ``Δx = xs − xs_prev`` and ``Δf = f − f_prev`` (else None for both).
+    ``last``, ``Δx = xs − xs_prev`` and ``Δf = f − f_prev`` (else None for both). ``xs`` and
+    ``f`` are written over ``last``'s arrays (which the caller no longer needs), the
+    differences into ``spare`` if given (two arrays of the support's size that are done with,
+    e.g. the history's oldest pair about to be dropped): no new arrays for what a step keeps.
     """
     size = support.size
-    xs, f = np.empty(size), np.empty(size)
     empty = np.empty(0)
-    dx, df = (np.empty(size), np.empty(size)) if last is not None else (empty, empty)
+    xs, f = last if last is not None else (np.empty(size), np.empty(size))
+    dx, df = empty, empty
+    if last is not None:
+        dx, df = spare if spare is not None else (np.empty(size), np.empty(size))
     last_x, last_f = last if last is not None else (empty, empty)
     over_ranges(_gather_differences, size, threads(), x, gx, support, last_x, last_f, xs, f,
                 dx, df)
