@@ -26,6 +26,23 @@ EVEN_COMPONENTS = 4
 
 
 @numba.njit(nogil=True, cache=True, boundscheck=False)
+def _copy(box: np.ndarray, lines: np.ndarray, into_lines: bool, first: int,
+          last: int) -> None:  # pragma: no cover - compiled
+    """Copy box planes first ≤ i < last into the lines (``into_lines``) or back."""
+    n2, n3 = box.shape[1], box.shape[2]
+    for i in range(first, last):  # box[i] stays in cache while its lines are written or read
+        for k in range(n3):
+            for c in range(6):
+                row = k if c < EVEN_COMPONENTS else k + 1
+                if into_lines:
+                    for j in range(n2):
+                        lines[c, row, i, j] = box[i, j, k, c]
+                else:
+                    for j in range(n2):
+                        box[i, j, k, c] = lines[c, row, i, j]
+
+
+@numba.njit(nogil=True, cache=True, boundscheck=False)
 def lines_from_box(eps: np.ndarray, lines: np.ndarray, first: int,
                    last: int) -> None:  # pragma: no cover - compiled (tested via Python)
     """Write ``eps[i]`` (first ≤ i < last) into the depth lines, and zero their padding.
@@ -39,17 +56,11 @@ def lines_from_box(eps: np.ndarray, lines: np.ndarray, first: int,
         layer k, row k + 1 of an odd one; rows k ≥ n3 (even) and k ≥ n3 + 1 (odd) are set to
         zero, row 0 of an odd component is left as it is (its sine transform does not read it).
     """
+    _copy(eps, lines, True, first, last)
     n2, n3 = eps.shape[1], eps.shape[2]
-    depth = lines.shape[1]
-    for i in range(first, last):  # eps[i] stays in cache while its lines are written
-        for k in range(n3):
-            for c in range(6):
-                row = k if c < EVEN_COMPONENTS else k + 1
-                for j in range(n2):
-                    lines[c, row, i, j] = eps[i, j, k, c]
     for c in range(6):
         below = n3 if c < EVEN_COMPONENTS else n3 + 1
-        for k in range(below, depth):
+        for k in range(below, lines.shape[1]):
             for i in range(first, last):
                 for j in range(n2):
                     lines[c, k, i, j] = 0.0
@@ -63,10 +74,4 @@ def box_from_lines(lines: np.ndarray, out: np.ndarray, first: int,
     ``out`` (n1, n2, n3, 6) receives row k of the even components' lines and row k + 1 of the
     odd ones'.
     """
-    n2, n3 = out.shape[1], out.shape[2]
-    for i in range(first, last):  # out[i] stays in cache while its lines are read
-        for k in range(n3):
-            for c in range(6):
-                row = k if c < EVEN_COMPONENTS else k + 1
-                for j in range(n2):
-                    out[i, j, k, c] = lines[c, row, i, j]
+    _copy(out, lines, False, first, last)
