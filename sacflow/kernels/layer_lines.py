@@ -29,8 +29,9 @@ EVEN_COMPONENTS = 4
 def _copy(box: np.ndarray, lines: np.ndarray, into_lines: bool, first: int,
           last: int) -> None:  # pragma: no cover - compiled
     """Copy box planes first ≤ i < last into the lines (``into_lines``) or back."""
+    box, lines = box[first:last], lines[:, :, first:last]  # from 0: no negative-index checks
     n2, n3 = box.shape[1], box.shape[2]
-    for i in range(first, last):  # box[i] stays in cache while its lines are written or read
+    for i in range(box.shape[0]):  # box[i] stays in cache while its lines are written or read
         for k in range(n3):
             for c in range(6):
                 row = k if c < EVEN_COMPONENTS else k + 1
@@ -58,10 +59,11 @@ def lines_from_box(eps: np.ndarray, lines: np.ndarray, first: int,
     """
     _copy(eps, lines, True, first, last)
     n2, n3 = eps.shape[1], eps.shape[2]
+    lines = lines[:, :, first:last]
     for c in range(6):
         below = n3 if c < EVEN_COMPONENTS else n3 + 1
         for k in range(below, lines.shape[1]):
-            for i in range(first, last):
+            for i in range(lines.shape[2]):
                 for j in range(n2):
                     lines[c, k, i, j] = 0.0
 

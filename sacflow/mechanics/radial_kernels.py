@@ -85,7 +85,8 @@ def scaled_deviators_into(stress: FloatArray, idx: IndexArray, factor: FloatArra
 
     The plastic strain increment of a radial return, 3/2 Δp s/q_tr, scattered into the box.
     """
-    for k in range(first, last):
+    idx, factor = idx[first:last], factor[first:last]  # from 0: no negative-index checks on k
+    for k in range(idx.size):
         i = idx[k]
         mean = _mean(stress[i])
         f = factor[k]
@@ -102,7 +103,8 @@ def returned_into(stress: FloatArray, idx: IndexArray, ratio: FloatArray, out: F
 
     The returned stress of a radial return, ratio = σ_Y(p + Δp)/q_tr, for first ≤ k < last.
     """
-    for k in range(first, last):
+    idx, ratio = idx[first:last], ratio[first:last]
+    for k in range(idx.size):
         i = idx[k]
         mean = _mean(stress[i])
         r = ratio[k]
@@ -194,8 +196,7 @@ def step_doubled_points(kind: int, prm: FloatArray, start: FloatArray, trial: Fl
     point = np.empty(6)
     s = np.empty(6)
     strain = np.empty(6)
-    for k in range(first, last):
-        i = idx[k]
+    for i in idx[first:last]:
         p0 = p_all[i]
         for j in range(6):
             half[j] = 0.5 * (trial[i, j] - start[i, j])
