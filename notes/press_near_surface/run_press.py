@@ -1,11 +1,11 @@
 """Run the indentation press (600 N) on nx² × nz cells over the shipped box depth.
 
-``python notes/press_near_surface/run_press.py NX NZ SAMPLING[:TRACTION] [OVERRIDE ...]``
+``python notes/press_near_surface/run_press.py NX NZ SAMPLING [OVERRIDE ...]``
 
 SAMPLING is ``SolverSettings.stress_sampling`` (1: stresses at the cell centres, as shipped;
-2 or more: cell means), TRACTION its ``traction_sampling`` (default 1). Prints the run time,
-print depth, largest εp, peak pressure, the residual σ33 and εp on the axis (first 20 layers)
-and the first layer's σ33 (axis, minimum) and writes the final fields to /tmp/press/run_<tag>.npz.
+2 or more: cell means). Prints the run time, print depth, largest εp, peak pressure, the
+residual σ33 and εp on the axis (first 20 layers) and the first layer's σ33 (axis, minimum)
+and writes the final fields to /tmp/press/run_<tag>.npz.
 """
 
 from __future__ import annotations
@@ -26,17 +26,14 @@ CASE = STUDY_CASES["dent-from-indentation-press"]
 
 def main(argv: list[str]) -> None:
     """Run one grid and print its numbers."""
-    nx, nz = int(argv[0]), int(argv[1])
-    sampling, _, traction_text = argv[2].partition(":")
-    traction = int(traction_text or 1)
+    nx, nz, sampling = int(argv[0]), int(argv[1]), int(argv[2])
     extra = argv[3:]
     depth = shipped_discretisation(base_case(CASE)).depth
     case = base_case(CASE, [f"grid.nx={nx}", f"grid.ny={nx}", f"grid.nz={nz}",
                             f"grid.depth={depth!r}", *extra])
     start = time.time()
     inputs = solver_inputs(case)
-    settings = dataclasses.replace(inputs.settings, stress_sampling=int(sampling),
-                                   traction_sampling=traction)
+    settings = dataclasses.replace(inputs.settings, stress_sampling=sampling)
     sim = Simulation(dataclasses.replace(inputs, settings=settings))
     setup = time.time() - start
     states = list(sim.run())
@@ -46,7 +43,7 @@ def main(argv: list[str]) -> None:
     i, j = int(np.argmin(np.abs(x1))), int(np.argmin(np.abs(x2)))
     ep = sim.equivalent_plastic_strain
     u = states[-1].surface["residual_displacement"]
-    tag = (f"{nx}x{nz}_s{sampling}" + (f"t{traction}" if traction > 1 else "")
+    tag = (f"{nx}x{nz}_s{sampling}"
            + "".join("_" + e.replace("=", "-") for e in extra))
     Path("/tmp/press").mkdir(exist_ok=True)
     np.savez(f"/tmp/press/run_{tag}.npz", res=residual, ep=ep, x1=x1, x2=x2, x3=x3, u=u,

@@ -24,9 +24,8 @@ import numpy as np
 
 __all__ = ["check_sampling", "sub_offsets", "sub_points"]
 
-#: Largest number of points per axis (the kernel set-up costs ``sampling³`` evaluations of
-#: a stress kernel, ``sampling²`` of the surface traction).
-MAX_SAMPLING = 16
+#: Largest number of points per axis (the kernel set-up costs ``sampling³`` evaluations).
+MAX_SAMPLING = 8
 
 
 def check_sampling(sampling: int) -> int:

@@ -117,10 +117,6 @@ class HalfSpaceEigenstrain:
         (:mod:`sacflow.kernels.cell_average`): 1 (default) the centre value, more the cell
         mean (energy-consistent; the kernel set-up costs ``stress_sampling³`` times more, an
         application the same).
-    traction_sampling : int, optional
-        Points per axis of each surface cell at which the surface traction removed by the
-        half-space correction is averaged (1, default: its centre value; more: its cell mean,
-        which near-surface cuboids need, :mod:`sacflow.kernels.eigenstrain_spectra`).
 
     Attributes
     ----------
@@ -143,7 +139,6 @@ class HalfSpaceEigenstrain:
         threads: int | None = None,
         max_bytes: int | None = None,
         stress_sampling: int = 1,
-        traction_sampling: int = 1,
     ):
         from sacflow.errors import GridTooLargeError
 
@@ -152,7 +147,6 @@ class HalfSpaceEigenstrain:
         self.E, self.nu = float(E), float(nu)
         self.mu = self.E / (2.0 * (1.0 + self.nu))
         self.stress_sampling = check_sampling(stress_sampling)
-        self.traction_sampling = check_sampling(traction_sampling)
         need = kernel_bytes(self.shape)
         budget = available_memory() if max_bytes is None else int(max_bytes)
         if need > budget:
@@ -196,8 +190,7 @@ class HalfSpaceEigenstrain:
         spectra = cached_arrays("eigenstrain", self.cache_parameters(),
                                 lambda: kernel_spectra(self.shape, self.spacing, self.nu,
                                                        self.mu, self.threads,
-                                                       self.stress_sampling,
-                                                       self.traction_sampling))
+                                                       self.stress_sampling))
         self.pair_spectra, self.surface_spectra, self.correction_spectra = (
             np.asarray(spectra[name]) for name in ("pairs", "surface", "correction"))
         for arr in (self.pair_spectra, self.surface_spectra, self.correction_spectra):
@@ -206,15 +199,14 @@ class HalfSpaceEigenstrain:
     def cache_parameters(self) -> dict[str, Any]:
         """Everything that determines the kernel spectra (the key of the disk cache).
 
-        The samplings enter only when they are not the centre (the keys of centre-sampled
+        The stress sampling enters only when it is not the centre (the keys of centre-sampled
         operators stay those of the kernels already cached).
         """
         parameters: dict[str, Any] = {"version": KERNEL_VERSION, "shape": list(self.shape),
                                       "spacing": list(self.spacing), "E": self.E,
                                       "nu": self.nu}
-        for name in ("stress_sampling", "traction_sampling"):
-            if getattr(self, name) != 1:
-                parameters[name] = getattr(self, name)
+        if self.stress_sampling != 1:
+            parameters["stress_sampling"] = self.stress_sampling
         return parameters
 
     # ------------------------------------------------------------------ application

@@ -10,12 +10,9 @@ DCT-II/DST-II projections of the layers). The loops over depth offsets, layers, 
 blocks are shared out between threads (:func:`sacflow.machine.threads.in_threads`).
 
 With ``sampling`` > 1 every stress kernel (pairs and correction) is the mean over the
-``sampling³`` sub-cell centres of the target cell (:mod:`sacflow.kernels.cell_average`): the
-operator gives cell-averaged stresses; ``sampling = 1`` (the default) samples the centres. With
-``traction_sampling`` > 1 the surface traction that the correction removes is the mean over
-each surface cell of ``traction_sampling²`` sub-cell centres, not its value at the centre: the
-traction of a cuboid whose top face is the surface changes sign and jumps within a cell, and
-its centre value misstates the force the cell carries (notes/press-near-surface.md).
+``sampling³`` sub-cell centres of the target cell and the surface traction the mean over the
+surface cell's ``sampling²`` sub-cell centres (:mod:`sacflow.kernels.cell_average`): the
+operator gives cell-averaged stresses; ``sampling = 1`` (the default) samples the centres.
 """
 
 from __future__ import annotations
@@ -146,19 +143,16 @@ def folded_offsets(shape: Sequence[int], spacing: Sequence[float]
 
 
 def kernel_spectra(shape: Sequence[int], spacing: Sequence[float], nu: float, mu: float,
-                   threads: int, sampling: int = 1, traction_sampling: int = 1
-                   ) -> dict[str, np.ndarray]:
+                   threads: int, sampling: int = 1) -> dict[str, np.ndarray]:
     """Compute the kernel spectra of an operator (a miss of the disk cache).
 
     ``pairs`` (:func:`pair_spectra`), ``surface`` and ``correction`` (:func:`layer_spectra`),
-    the stresses sampled at ``sampling`` points per axis of the target cell, the surface
-    traction at ``traction_sampling`` per axis of the surface cell.
+    the stresses sampled at ``sampling`` points per axis of the target cell.
     BLAS on one thread: its calls here (the corner sums' small matrix products) are short, and
     its spinning worker threads would take the cores from the plane loops' threads.
     """
     with single_threaded_blas():
-        surface, correction = layer_spectra(shape, spacing, nu, mu, threads, sampling,
-                                            traction_sampling)
+        surface, correction = layer_spectra(shape, spacing, nu, mu, threads, sampling)
         return {"pairs": pair_spectra(shape, spacing, nu, mu, threads, sampling),
                 "surface": surface, "correction": correction}
 
@@ -172,17 +166,17 @@ class SampledLattices:
     """
 
     def __init__(self, x1: np.ndarray, x2: np.ndarray, spacing: Sequence[float], nu: float,
-                 mu: float, sampling: int):
+                 mu: float, sampling: int, depth_points: bool = True):
         d1, d2, d3 = spacing
         half = (d1 / 2, d2 / 2, d3 / 2)
         self.sampling = sampling
         self.lateral = [(CuboidLattice(x1 + p1, x2 + p2, half, nu, mu))
                         for p1, p2 in sub_points(sampling, (d1, d2))]
-        self.depths = [p[0] for p in sub_points(sampling, (d3,))]
+        self.depths = ([p[0] for p in sub_points(sampling, (d3,))] if depth_points else [0.0])
 
     def plane(self, x3: float, columns: Sequence[tuple[int, int]] | None = None) -> np.ndarray:
         """Mean of the columns over the sub-points, (len(x1), len(x2), columns), at ``x3``."""
-        if self.sampling == 1:
+        if self.sampling == 1 and len(self.depths) == 1:
             return self.lateral[0].folded_plane(x3, columns)
         columns = ([(c, d) for c in range(6) for d in range(6)] if columns is None
                    else list(columns))
@@ -246,8 +240,7 @@ def pair_spectra(shape: Sequence[int], spacing: Sequence[float], nu: float, mu: 
 
 
 def layer_spectra(shape: Sequence[int], spacing: Sequence[float], nu: float, mu: float,
-                  threads: int, sampling: int = 1, traction_sampling: int = 1
-                  ) -> tuple[np.ndarray, np.ndarray]:
+                  threads: int, sampling: int = 1) -> tuple[np.ndarray, np.ndarray]:
     """Compute the depth-frequency spectra of the surface terms and the traction correction.
 
     Spectra of the surface traction of 1+2 and of the surface displacement, stacked
@@ -260,9 +253,8 @@ def layer_spectra(shape: Sequence[int], spacing: Sequence[float], nu: float, mu:
     of a unit surface traction at each layer, transformed along depth like the output.
     Component ``c`` of each has the lateral parities of component ``c`` (the surface
     traction and displacement are normal, the pressure even). All normalised for the
-    unnormalised inverse transforms of an application. With ``sampling`` > 1 the correction
-    is the mean over the target cell, with ``traction_sampling`` > 1 the traction the mean over
-    the surface cell (:func:`cell_mean_surface_traction`).
+    unnormalised inverse transforms of an application. With ``sampling`` > 1 the traction is
+    the mean over the surface cell and the correction the mean over the target cell.
     """
     n1, n2, n3 = shape
     d1, d2, d3 = spacing
@@ -273,17 +265,23 @@ def layer_spectra(shape: Sequence[int], spacing: Sequence[float], nu: float, mu:
     parities = PARITY[:2].T
     half = (L1 // 2 + 1, L2 // 2 + 1)
     layer = np.empty((3, 6, n3, *half))
+    # The surface is the top face of the first layer, where the closed form is one-sided;
+    # σ33 is continuous across a face, so take its limit at x3 = −η (η = 1e-10 d3).
+    eta = 1e-10 * d3
+    sigma33 = [(2, d) for d in range(6)]
 
     def layers(first: int, last: int) -> None:
-        """Spectra of the layers first … last − 1."""
+        """Spectra of the layers first … last − 1 (own lattice)."""
+        lattice = SampledLattices(x1, x2, spacing, nu, mu, sampling, depth_points=False)
 
         def spectra(fields: np.ndarray) -> np.ndarray:
             return np.moveaxis(folded_spectra(fields, parities, (L1, L2)), -1, 0)
 
         for j in range(first, last):
             zj = (j + 0.5) * d3
-            layer[0, :, j] = spectra(cell_mean_surface_traction(x1, x2, zj, spacing, nu, mu,
-                                                                traction_sampling))
+            # σ33 on the surface from the cuboid at depth zj and its image (13, 23 flipped)
+            layer[0, :, j] = spectra(lattice.plane(-zj - eta, sigma33)
+                                     + MIRROR_SIGN * lattice.plane(zj - eta, sigma33))
             layer[1, :, j] = spectra(cuboid_surface_displacement(o1, o2, zj, h1, h2, h3, nu))
             layer[2, :, j] = spectra(cell_mean_love_stress(x1, x2, zj, spacing, nu, sampling))
 
@@ -305,37 +303,6 @@ def layer_spectra(shape: Sequence[int], spacing: Sequence[float], nu: float, mu:
     tasks = [(c, k) for c in range(6) for k in range(3)]
     in_threads(project, threads, *zip(*tasks, strict=True))
     return out[:2], out[2]
-
-
-def cell_mean_surface_traction(x1: np.ndarray, x2: np.ndarray, depth: float,
-                               spacing: Sequence[float], nu: float, mu: float, sampling: int
-                               ) -> np.ndarray:
-    """Return the normal surface traction σ33 of a unit cuboid at ``depth`` [m] and its image.
-
-    The infinite-space stress (1 + 2 of :mod:`sacflow.kernels.eigenstrain`; the image carries
-    ``ε13, ε23`` sign-flipped) on the surface at the offsets ``x1 × x2``: at the surface
-    cells' centres (``sampling = 1``) or the mean over their ``sampling²`` sub-cell centres;
-    (len(x1), len(x2), 6), one column per eigenstrain component. The surface is the top face of
-    the first layer, where the closed form is one-sided; σ33 is continuous across a face, so
-    its limit at x3 = −η (η = 1e-10 d3) is taken.
-    """
-    d1, d2, d3 = spacing
-    half = (d1 / 2, d2 / 2, d3 / 2)
-    eta = 1e-10 * d3
-    sigma33 = [(2, d) for d in range(6)]
-    if sampling == 1:
-        lattice = CuboidLattice(x1, x2, half, nu, mu)
-        centre: np.ndarray = (lattice.folded_plane(-depth - eta, sigma33)
-                              + MIRROR_SIGN * lattice.folded_plane(depth - eta, sigma33))
-        return centre
-    total = np.zeros((len(x1), len(x2), 6))
-    for p1, p2 in sub_points(sampling, (d1, d2)):
-        shifted = CuboidLattice(x1 + p1, x2 + p2, half, nu, mu)
-        total += np.moveaxis(shifted.plane(-depth - eta, sigma33)
-                             + MIRROR_SIGN[:, None, None] * shifted.plane(depth - eta, sigma33),
-                             0, -1)
-    mean: np.ndarray = total / sampling ** 2
-    return mean
 
 
 def cell_mean_love_stress(x1: np.ndarray, x2: np.ndarray, depth: float,

@@ -184,9 +184,7 @@ class SolverSettings:
     :mod:`sacflow.mechanics.return_extrapolation`) or one backward-Euler step;
     ``stress_sampling`` the points per axis of a cell at which the stresses are averaged (1: the
     centre value; 2 or more: the cell mean, whose residual-stress operator is positive
-    semi-definite like the elastic energy, :mod:`sacflow.kernels.cell_average`);
-    ``traction_sampling`` the points per axis of a surface cell at which the eigenstrain
-    operator averages the surface traction of its half-space correction (1: the centre value).
+    semi-definite like the elastic energy, :mod:`sacflow.kernels.cell_average`).
     """
 
     contact_tolerance: float = 1e-10
@@ -203,7 +201,6 @@ class SolverSettings:
     inclusion_max_iterations: int = 1000
     return_integration: Literal["extrapolated", "backward_euler"] = "extrapolated"
     stress_sampling: int = 1
-    traction_sampling: int = 1
 
 
 @dataclass(frozen=True)

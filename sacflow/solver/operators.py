@@ -59,16 +59,12 @@ class Operators:
     stress_sampling : int
         Points per axis of a cell at which the stresses (contact and residual) are averaged:
         1 the centre value, more the cell mean (:mod:`sacflow.kernels.cell_average`).
-    traction_sampling : int
-        Points per axis of a surface cell at which the eigenstrain operator averages the
-        surface traction its half-space correction removes (1: the centre value).
     """
 
     def __init__(self, window: tuple[int, int], body_shape: tuple[int, int],
                  cell: tuple[float, float], nz: int, dz: float, E: float, nu: float,
                  e_star: float, traction: tuple[float, float] | None, plastic: bool,
-                 threads: int | None, stress_sampling: int = 1,
-                 traction_sampling: int = 1) -> None:
+                 threads: int | None, stress_sampling: int = 1) -> None:
         self.body_shape = body_shape
         self.stress_sampling = stress_sampling
         self.cell = cell
@@ -98,7 +94,7 @@ class Operators:
 
             self.eigen = HalfSpaceEigenstrain(
                 (*body_shape, nz), (dx1, dx2, dz), E, nu, threads=threads,
-                stress_sampling=stress_sampling, traction_sampling=traction_sampling,
+                stress_sampling=stress_sampling,
             )
 
     def contact_stress_parameters(self) -> dict[str, Any]:
