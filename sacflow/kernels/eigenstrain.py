@@ -78,6 +78,7 @@ from typing import Any, Literal, overload
 
 import numpy as np
 
+from sacflow.kernels.cell_average import check_sampling
 from sacflow.kernels.cuboid import SHEAR_WEIGHTS
 from sacflow.kernels.eigenstrain_memory import kernel_bytes, padded_lengths
 from sacflow.kernels.eigenstrain_spectra import EVEN, KERNEL_VERSION, ODD, kernel_spectra
@@ -111,6 +112,11 @@ class HalfSpaceEigenstrain:
     max_bytes : int, optional
         Memory budget; default: the memory available now. A larger need raises
         :class:`~sacflow.errors.GridTooLargeError` naming the bytes required.
+    stress_sampling : int, optional
+        Points per axis of each cell at which the stress is averaged
+        (:mod:`sacflow.kernels.cell_average`): 1 (default) the centre value, more the cell
+        mean (energy-consistent; the kernel set-up costs ``stress_sampling³`` times more, an
+        application the same).
 
     Attributes
     ----------
@@ -132,6 +138,7 @@ class HalfSpaceEigenstrain:
         nu: float,
         threads: int | None = None,
         max_bytes: int | None = None,
+        stress_sampling: int = 1,
     ):
         from sacflow.errors import GridTooLargeError
 
@@ -139,6 +146,7 @@ class HalfSpaceEigenstrain:
         self.spacing = tuple(float(d) for d in spacing)
         self.E, self.nu = float(E), float(nu)
         self.mu = self.E / (2.0 * (1.0 + self.nu))
+        self.stress_sampling = check_sampling(stress_sampling)
         need = kernel_bytes(self.shape)
         budget = available_memory() if max_bytes is None else int(max_bytes)
         if need > budget:
@@ -181,16 +189,25 @@ class HalfSpaceEigenstrain:
         # pass; the traction correction. From the disk cache when it has them.
         spectra = cached_arrays("eigenstrain", self.cache_parameters(),
                                 lambda: kernel_spectra(self.shape, self.spacing, self.nu,
-                                                       self.mu, self.threads))
+                                                       self.mu, self.threads,
+                                                       self.stress_sampling))
         self.pair_spectra, self.surface_spectra, self.correction_spectra = (
             np.asarray(spectra[name]) for name in ("pairs", "surface", "correction"))
         for arr in (self.pair_spectra, self.surface_spectra, self.correction_spectra):
             arr.flags.writeable = False
 
     def cache_parameters(self) -> dict[str, Any]:
-        """Everything that determines the kernel spectra (the key of the disk cache)."""
-        return {"version": KERNEL_VERSION, "shape": list(self.shape),
-                "spacing": list(self.spacing), "E": self.E, "nu": self.nu}
+        """Everything that determines the kernel spectra (the key of the disk cache).
+
+        The stress sampling enters only when it is not the centre (the keys of centre-sampled
+        operators stay those of the kernels already cached).
+        """
+        parameters: dict[str, Any] = {"version": KERNEL_VERSION, "shape": list(self.shape),
+                                      "spacing": list(self.spacing), "E": self.E,
+                                      "nu": self.nu}
+        if self.stress_sampling != 1:
+            parameters["stress_sampling"] = self.stress_sampling
+        return parameters
 
     # ------------------------------------------------------------------ application
     def _forward(self, eps: np.ndarray) -> np.ndarray:
@@ -266,7 +283,7 @@ class HalfSpaceEigenstrain:
 
     def residual_stress(self, eps: np.ndarray, with_displacement: bool = False
                         ) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
-        """Residual stress [Pa] at every cuboid centre, shape (n1, n2, n3, 6).
+        """Residual stress [Pa] of every cuboid (centre or cell mean), shape (n1, n2, n3, 6).
 
         With ``with_displacement=True`` returns ``(stress, displacement)`` sharing one forward
         transform.

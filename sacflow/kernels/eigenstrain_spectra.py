@@ -8,6 +8,11 @@ closed forms on the corner lattice at the lateral offsets ≥ 0, folded lateral 
 (:mod:`sacflow.kernels.folded_fft`), then depth transforms (DCT-I/DST-I of the kernels, half
 DCT-II/DST-II projections of the layers). The loops over depth offsets, layers, projections and
 blocks are shared out between threads (:func:`sacflow.machine.threads.in_threads`).
+
+With ``sampling`` > 1 every stress kernel (pairs and correction) is the mean over the
+``sampling³`` sub-cell centres of the target cell and the surface traction the mean over the
+surface cell's ``sampling²`` sub-cell centres (:mod:`sacflow.kernels.cell_average`): the
+operator gives cell-averaged stresses; ``sampling = 1`` (the default) samples the centres.
 """
 
 from __future__ import annotations
@@ -17,6 +22,7 @@ from collections.abc import Sequence
 import numpy as np
 import scipy.fft
 
+from sacflow.kernels.cell_average import sub_points
 from sacflow.kernels.cuboid import PARITY, SHEAR_WEIGHTS
 from sacflow.kernels.cuboid_lattice import CuboidLattice
 from sacflow.kernels.eigenstrain_memory import DEPTH_BLOCK_BYTES, padded_lengths
@@ -137,21 +143,51 @@ def folded_offsets(shape: Sequence[int], spacing: Sequence[float]
 
 
 def kernel_spectra(shape: Sequence[int], spacing: Sequence[float], nu: float, mu: float,
-                   threads: int) -> dict[str, np.ndarray]:
+                   threads: int, sampling: int = 1) -> dict[str, np.ndarray]:
     """Compute the kernel spectra of an operator (a miss of the disk cache).
 
-    ``pairs`` (:func:`pair_spectra`), ``surface`` and ``correction`` (:func:`layer_spectra`).
+    ``pairs`` (:func:`pair_spectra`), ``surface`` and ``correction`` (:func:`layer_spectra`),
+    the stresses sampled at ``sampling`` points per axis of the target cell.
     BLAS on one thread: its calls here (the corner sums' small matrix products) are short, and
     its spinning worker threads would take the cores from the plane loops' threads.
     """
     with single_threaded_blas():
-        surface, correction = layer_spectra(shape, spacing, nu, mu, threads)
-        return {"pairs": pair_spectra(shape, spacing, nu, mu, threads), "surface": surface,
-                "correction": correction}
+        surface, correction = layer_spectra(shape, spacing, nu, mu, threads, sampling)
+        return {"pairs": pair_spectra(shape, spacing, nu, mu, threads, sampling),
+                "surface": surface, "correction": correction}
+
+
+class SampledLattices:
+    """Cuboid stresses at whole-cell offsets, averaged over sub-cell points of the target.
+
+    One :class:`~sacflow.kernels.cuboid_lattice.CuboidLattice` per lateral sub-point (its
+    offsets ``k d + ξ``), each evaluated at the depth sub-points; with ``sampling = 1`` the
+    centre lattice alone (folded offsets: the values at ``k d``, ``k ≥ 0``).
+    """
+
+    def __init__(self, x1: np.ndarray, x2: np.ndarray, spacing: Sequence[float], nu: float,
+                 mu: float, sampling: int, depth_points: bool = True):
+        d1, d2, d3 = spacing
+        half = (d1 / 2, d2 / 2, d3 / 2)
+        self.sampling = sampling
+        self.lateral = [(CuboidLattice(x1 + p1, x2 + p2, half, nu, mu))
+                        for p1, p2 in sub_points(sampling, (d1, d2))]
+        self.depths = ([p[0] for p in sub_points(sampling, (d3,))] if depth_points else [0.0])
+
+    def plane(self, x3: float, columns: Sequence[tuple[int, int]] | None = None) -> np.ndarray:
+        """Mean of the columns over the sub-points, (len(x1), len(x2), columns), at ``x3``."""
+        if self.sampling == 1 and len(self.depths) == 1:
+            return self.lateral[0].folded_plane(x3, columns)
+        columns = ([(c, d) for c in range(6) for d in range(6)] if columns is None
+                   else list(columns))
+        total = sum(np.moveaxis(lattice.plane(x3 + p3, columns), 0, -1)
+                    for lattice in self.lateral for p3 in self.depths)
+        mean: np.ndarray = np.asarray(total) / (len(self.lateral) * len(self.depths))
+        return mean
 
 
 def pair_spectra(shape: Sequence[int], spacing: Sequence[float], nu: float, mu: float,
-                 threads: int) -> np.ndarray:
+                 threads: int, sampling: int = 1) -> np.ndarray:
     """Compute 21 stored pair spectra (weighted, normalised), point-major (N+1, L1h, L2h, 21).
 
     The infinite-space kernel ``A_cd(x1, x2, o d3)`` (Poisson's ratio ``nu``, shear modulus
@@ -162,7 +198,8 @@ def pair_spectra(shape: Sequence[int], spacing: Sequence[float], nu: float, mu: 
     (:func:`~sacflow.kernels.folded_fft.folded_spectra`); then along depth by a DCT-I (even
     pairs) or a DST-I (odd pairs), which is its full period-2N DFT up to the factor −i of odd
     sequences; ``σ_cd = −1`` for an even output and an odd input collects those factors (module
-    notes of :mod:`sacflow.kernels.eigenstrain`). Reciprocity and the parity in x3 are checked.
+    notes of :mod:`sacflow.kernels.eigenstrain`). Reciprocity and the parity in x3 are checked
+    (on the averaged kernels with ``sampling`` > 1: the sub-points are symmetric).
     """
     d1, d2, d3 = spacing
     L1, L2, N = padded_lengths(shape)
@@ -171,13 +208,13 @@ def pair_spectra(shape: Sequence[int], spacing: Sequence[float], nu: float, mu: 
     # campaign workers of elastic cases skip its slow import).
     from sacflow.kernels.pair_products import EVEN_PAIRS, PAIRS
 
-    def lattice() -> CuboidLattice:
-        return CuboidLattice(x1, x2, (d1 / 2, d2 / 2, d3 / 2), nu, mu)
+    def lattice() -> SampledLattices:
+        return SampledLattices(x1, x2, spacing, nu, mu, sampling)
 
     check = lattice()
-    _check_depth_parity(check.folded_plane(-d3), check.folded_plane(d3))
+    _check_depth_parity(check.plane(-d3), check.plane(d3))
     for m in (0, 1, N // 2):  # in real space; then only the stored columns are computed
-        _check_reciprocity(check.folded_plane(m * d3))
+        _check_reciprocity(check.plane(m * d3))
     weights = np.array([SHEAR_WEIGHTS[c] for c, _ in PAIRS])
     parities = np.array([[PARITY[a, c] * PARITY[a, d] for a in (0, 1)] for c, d in PAIRS])
     # Point-major storage (one contiguous run of 21 per spectral point), rows k1 ≤ L1 // 2
@@ -189,7 +226,7 @@ def pair_spectra(shape: Sequence[int], spacing: Sequence[float], nu: float, mu: 
         """Kernels of the depth offsets first … last − 1 (own lattice)."""
         own = lattice()
         for m in range(first, last):
-            folded = own.folded_plane(m * d3, PAIRS)
+            folded = own.plane(m * d3, PAIRS)
             folded *= weights
             kernels[m] = folded_spectra(folded, parities, (L1, L2))
 
@@ -203,7 +240,7 @@ def pair_spectra(shape: Sequence[int], spacing: Sequence[float], nu: float, mu: 
 
 
 def layer_spectra(shape: Sequence[int], spacing: Sequence[float], nu: float, mu: float,
-                  threads: int) -> tuple[np.ndarray, np.ndarray]:
+                  threads: int, sampling: int = 1) -> tuple[np.ndarray, np.ndarray]:
     """Compute the depth-frequency spectra of the surface terms and the traction correction.
 
     Spectra of the surface traction of 1+2 and of the surface displacement, stacked
@@ -216,7 +253,8 @@ def layer_spectra(shape: Sequence[int], spacing: Sequence[float], nu: float, mu:
     of a unit surface traction at each layer, transformed along depth like the output.
     Component ``c`` of each has the lateral parities of component ``c`` (the surface
     traction and displacement are normal, the pressure even). All normalised for the
-    unnormalised inverse transforms of an application.
+    unnormalised inverse transforms of an application. With ``sampling`` > 1 the traction is
+    the mean over the surface cell and the correction the mean over the target cell.
     """
     n1, n2, n3 = shape
     d1, d2, d3 = spacing
@@ -234,7 +272,7 @@ def layer_spectra(shape: Sequence[int], spacing: Sequence[float], nu: float, mu:
 
     def layers(first: int, last: int) -> None:
         """Spectra of the layers first … last − 1 (own lattice)."""
-        lattice = CuboidLattice(x1, x2, (h1, h2, h3), nu, mu)
+        lattice = SampledLattices(x1, x2, spacing, nu, mu, sampling, depth_points=False)
 
         def spectra(fields: np.ndarray) -> np.ndarray:
             return np.moveaxis(folded_spectra(fields, parities, (L1, L2)), -1, 0)
@@ -242,10 +280,10 @@ def layer_spectra(shape: Sequence[int], spacing: Sequence[float], nu: float, mu:
         for j in range(first, last):
             zj = (j + 0.5) * d3
             # σ33 on the surface from the cuboid at depth zj and its image (13, 23 flipped)
-            layer[0, :, j] = spectra(lattice.folded_plane(-zj - eta, sigma33)
-                                     + MIRROR_SIGN * lattice.folded_plane(zj - eta, sigma33))
+            layer[0, :, j] = spectra(lattice.plane(-zj - eta, sigma33)
+                                     + MIRROR_SIGN * lattice.plane(zj - eta, sigma33))
             layer[1, :, j] = spectra(cuboid_surface_displacement(o1, o2, zj, h1, h2, h3, nu))
-            layer[2, :, j] = spectra(rectangle_stress_grid(x1, x2, zj, h1, h2, nu))
+            layer[2, :, j] = spectra(cell_mean_love_stress(x1, x2, zj, spacing, nu, sampling))
 
     # Layers shared out between the threads, as the pair kernels' depth offsets.
     in_threads(layers, threads, *zip(*contiguous_ranges(n3, threads), strict=True))
@@ -265,3 +303,20 @@ def layer_spectra(shape: Sequence[int], spacing: Sequence[float], nu: float, mu:
     tasks = [(c, k) for c in range(6) for k in range(3)]
     in_threads(project, threads, *zip(*tasks, strict=True))
     return out[:2], out[2]
+
+
+def cell_mean_love_stress(x1: np.ndarray, x2: np.ndarray, depth: float,
+                          spacing: Sequence[float], nu: float, sampling: int) -> np.ndarray:
+    """Love's stress of a unit pressure on a surface cell, at ``x1 × x2`` and ``depth`` [m].
+
+    :func:`~sacflow.kernels.surface.rectangle_stress_grid` at the centre (``sampling = 1``) or
+    its mean over the target cell's ``sampling³`` sub-cell centres; (len(x1), len(x2), 6).
+    """
+    d1, d2, d3 = spacing
+    if sampling == 1:
+        return rectangle_stress_grid(x1, x2, depth, d1 / 2, d2 / 2, nu)
+    points = list(sub_points(sampling, (d1, d2, d3)))
+    total = sum(rectangle_stress_grid(x1 + p1, x2 + p2, depth + p3, d1 / 2, d2 / 2, nu)
+                for p1, p2, p3 in points)
+    mean: np.ndarray = np.asarray(total) / len(points)
+    return mean

@@ -246,7 +246,7 @@ def traction_stress(
 
 def surface_load_stress_coefficients(
     cell: tuple[float, float], depths: NDArray[np.float64], nu: float,
-    traction: tuple[float, float] | None = None,
+    traction: tuple[float, float] | None = None, sampling: int = 1, thickness: float = 0.0,
 ) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
     """Influence coefficients of a cell's unit pressure on the stress at a set of depths.
 
@@ -255,21 +255,31 @@ def surface_load_stress_coefficients(
     components per layer: Love's rectangle (:func:`sacflow.kernels.surface.rectangle_stress_grid`)
     and, with a ``traction`` (t1, t2) per unit pressure, its shear traction's stresses
     (:func:`traction_stress`). One layer at a time, so the closed form's temporaries stay small.
+    With ``sampling`` > 1 each coefficient is the mean over the ``sampling³`` sub-cell centres
+    of the target cell (layers ``thickness`` [m] thick, :mod:`sacflow.kernels.cell_average`),
+    to pair with the cell-averaged residual stress.
     """
+    from sacflow.kernels.cell_average import sub_points
     from sacflow.kernels.surface import rectangle_stress_grid
 
     dx1, dx2 = cell
     h1, h2 = dx1 / 2, dx2 / 2
     depths = np.asarray(depths, dtype=float)
+    points = list(sub_points(sampling, (dx1, dx2, thickness)))
+
+    def at_point(d1: np.ndarray, d2: np.ndarray, depth: float) -> np.ndarray:
+        x1, x2 = d1 * dx1, d2 * dx2
+        s = rectangle_stress_grid(x1.ravel(), x2.ravel(), depth, h1, h2, nu)
+        if traction is not None:
+            s += traction_stress(x1, x2, depth, h1, h2, nu, traction)
+        return s
 
     def coefficients(d1: np.ndarray, d2: np.ndarray) -> np.ndarray:
         out = np.empty((depths.size, 6, *np.broadcast_shapes(d1.shape, d2.shape)))
         for k, depth in enumerate(depths):
-            s = rectangle_stress_grid(d1.ravel() * dx1, d2.ravel() * dx2, float(depth), h1, h2,
-                                      nu)
-            if traction is not None:
-                s += traction_stress(d1 * dx1, d2 * dx2, depth, h1, h2, nu, traction)
-            out[k] = np.moveaxis(s, -1, 0)
+            s = sum(at_point(d1 + p1 / dx1, d2 + p2 / dx2, float(depth) + p3)
+                    for p1, p2, p3 in points)
+            out[k] = np.moveaxis(np.asarray(s) / len(points), -1, 0)
         return out.reshape(6 * depths.size, 1, *out.shape[2:])
 
     return coefficients

@@ -181,7 +181,10 @@ class SolverSettings:
     modulus ratio of 1e-3 the first solve takes about 300 GMRES iterations to 1e-8);
     ``return_integration`` how the return integrates the flow over an increment: by step
     doubling along its straight trial path (``"extrapolated"``, second order,
-    :mod:`sacflow.mechanics.return_extrapolation`) or one backward-Euler step.
+    :mod:`sacflow.mechanics.return_extrapolation`) or one backward-Euler step;
+    ``stress_sampling`` the points per axis of a cell at which the stresses are averaged (1: the
+    centre value; 2 or more: the cell mean, whose residual-stress operator is positive
+    semi-definite like the elastic energy, :mod:`sacflow.kernels.cell_average`).
     """
 
     contact_tolerance: float = 1e-10
@@ -197,6 +200,7 @@ class SolverSettings:
     inclusion_tolerance: float = 1e-8
     inclusion_max_iterations: int = 1000
     return_integration: Literal["extrapolated", "backward_euler"] = "extrapolated"
+    stress_sampling: int = 1
 
 
 @dataclass(frozen=True)

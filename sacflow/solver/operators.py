@@ -56,13 +56,17 @@ class Operators:
         it, and without numba.
     threads : int or None
         FFT threads.
+    stress_sampling : int
+        Points per axis of a cell at which the stresses (contact and residual) are averaged:
+        1 the centre value, more the cell mean (:mod:`sacflow.kernels.cell_average`).
     """
 
     def __init__(self, window: tuple[int, int], body_shape: tuple[int, int],
                  cell: tuple[float, float], nz: int, dz: float, E: float, nu: float,
                  e_star: float, traction: tuple[float, float] | None, plastic: bool,
-                 threads: int | None) -> None:
+                 threads: int | None, stress_sampling: int = 1) -> None:
         self.body_shape = body_shape
+        self.stress_sampling = stress_sampling
         self.cell = cell
         self.nz, self.dz, self.nu = nz, dz, nu
         self.traction = traction
@@ -75,7 +79,7 @@ class Operators:
 
         self.compliance = Convolution(love, window, window, threads=threads)
         z = layer_centres(nz, dz)
-        stresses = surface_load_stress_coefficients(cell, z, nu, traction)
+        stresses = surface_load_stress_coefficients(cell, z, nu, traction, stress_sampling, dz)
         # Pressure (embedded in the body grid at the window's place) -> stress on the body grid:
         # one operator serves every load position. With a shear traction q = μ p d its kernel
         # adds the traction's stress per unit pressure: the same one convolution.
@@ -90,6 +94,7 @@ class Operators:
 
             self.eigen = HalfSpaceEigenstrain(
                 (*body_shape, nz), (dx1, dx2, dz), E, nu, threads=threads,
+                stress_sampling=stress_sampling,
             )
 
     def contact_stress_parameters(self) -> dict[str, Any]:
@@ -97,14 +102,17 @@ class Operators:
 
         Love's rectangles at the layer centres (cells, layer thickness, layers, ν) and, with
         friction, the traction per unit pressure; ``shape`` (body grid and layers) is what
-        ``sacflow cache`` lists; the operator adds its own grid shapes.
+        ``sacflow cache`` lists; the operator adds its own grid shapes. The stress sampling
+        enters only when it is not the centre (the keys of the kernels already cached stay).
         """
         traction = self.traction
+        sampling = {} if self.stress_sampling == 1 else {"stress_sampling": self.stress_sampling}
         return {
             "version": CONTACT_STRESS_VERSION, "shape": [*self.body_shape, int(self.nz)],
             "cell": [float(c) for c in self.cell],
             "dz": float(self.dz), "nz": int(self.nz), "nu": float(self.nu),
             "traction": None if traction is None else [float(t) for t in traction],
+            **sampling,
         }
 
     @property

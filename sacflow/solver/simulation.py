@@ -96,7 +96,7 @@ class Simulation:
             self.operators = Operators(
                 grid.window, self.body_shape, spec.cell, self.nz, self.dz, material.E,
                 material.nu, inputs.contact.e_star, inputs.contact.traction, eigenstrains,
-                inputs.settings.fft_threads)
+                inputs.settings.fft_threads, inputs.settings.stress_sampling)
         initial = inputs.initial
         self.increments = IncrementSolver(self.operators, self.geometry, material,
                                           inputs.settings, self.coords.x3, initial.stress,
