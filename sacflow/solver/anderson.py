@@ -54,7 +54,7 @@ class AndersonMixer:
         self._gram = np.zeros((0, 0))  # ΔF^T ΔF, updated one column at a time
         self._last_x: np.ndarray | None = None
         self._last_f: np.ndarray | None = None
-        self._support = np.zeros(0, dtype=np.intp)  # sorted indices of the kept entries
+        self._support: np.ndarray = np.zeros(0, dtype=np.intp)  # sorted indices of those kept
         self._kept: np.ndarray | None = None  # the support as a mask over the full vector
 
     def reset(self) -> None:
@@ -95,8 +95,11 @@ class AndersonMixer:
         new = x != 0.0
         new |= gx != 0.0
         new |= kept
-        support = np.flatnonzero(new)  # sorted: the union of the old support and the nonzeros
-        where = np.flatnonzero(kept[support])  # places of the old entries in the new support
+        # sorted: the union of the old support and the nonzeros; indices of 32 bits when they
+        # fit (half the memory of the support, and of the old entries' places in it)
+        index = np.int32 if x.size <= np.iinfo(np.int32).max else np.intp
+        support = np.flatnonzero(new).astype(index)
+        where = np.flatnonzero(kept[support]).astype(index)  # the old entries' places
         self._kept = new
 
         def widened(v: np.ndarray) -> np.ndarray:

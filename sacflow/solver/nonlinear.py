@@ -201,8 +201,10 @@ def solve_fixed_point(
             newton, stalled, best = False, 0, ev.residual
             if mixer is not None:
                 mixer.reset()
-        x = ev.gx if mixer is None else mixer.step(x.ravel(), ev.gx.ravel()).reshape(shape)
-        del ev  # its fields (box-size arrays) freed before the next evaluation makes its own
+        gx = ev.gx
+        del ev  # its other fields (box-size arrays) freed before the mixing and the next
+        x = gx if mixer is None else mixer.step(x.ravel(), gx.ravel()).reshape(shape)
+        del gx  # evaluation make their own
         ev = evaluate(x)
         sweeps += 1
         log.debug("%s sweep %d: residual %.3e", label, iteration, ev.residual)
