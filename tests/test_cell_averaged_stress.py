@@ -123,7 +123,6 @@ def axis_plastic_strain(sampling: int, layers: int) -> np.ndarray:
     Linear hardening of 1 GPa (well below the checkerboard's energy deficit of centre sampling
     at these cells), 32² cells and ``layers`` layers (dx/dz ≈ 1.03 at 20).
     """
-    import dataclasses
     from pathlib import Path
 
     from sacflow.config.solver_inputs import solver_inputs
@@ -132,10 +131,9 @@ def axis_plastic_strain(sampling: int, layers: int) -> np.ndarray:
 
     config = Path(__file__).resolve().parent.parent / "configs/nanoindentation-linear-650mN.toml"
     case = load_case(config, ["body.hardening.modulus=1e9", "grid.nx=32", "grid.ny=32",
-                              f"grid.nz={layers}", "solver.fft_threads=1"])
-    inputs = solver_inputs(case)
-    settings = dataclasses.replace(inputs.settings, stress_sampling=sampling)
-    sim = Simulation(dataclasses.replace(inputs, settings=settings))
+                              f"grid.nz={layers}", "solver.fft_threads=1",
+                              f"solver.stress_sampling={sampling}"])
+    sim = Simulation(solver_inputs(case))
     states = list(sim.run())
     assert all(state.scalars()["converged"] for state in states)
     centre = int(np.argmin(np.abs(sim.coords.x1)))
@@ -157,3 +155,26 @@ def test_cell_mean_removes_the_layer_to_layer_oscillation_of_the_plastic_strain(
     assert extrema(axis_plastic_strain(1, 20)) > 2
     assert averaged.max() == pytest.approx(axis_plastic_strain(2, 16).max(), rel=5e-3)
 
+
+
+def test_the_case_option_reaches_the_solver_and_enters_the_id_only_when_not_the_centre():
+    """``solver.stress_sampling``: absent or 1 keeps the case id of the centre-sampled runs
+    stored before it existed; 2 is another case, whose solver and inclusion operators average;
+    a value out of range is a one-line message naming the field."""
+    from pathlib import Path
+
+    from sacflow.config.solver_inputs import solver_inputs
+    from sacflow.errors import ConfigError
+    from sacflow.storage.case_file import load_case
+
+    config = Path(__file__).resolve().parent.parent / "configs/nanoindentation-650mN.toml"
+    shipped = load_case(config)
+    assert load_case(config, ["solver.stress_sampling=1"]).case_id == shipped.case_id
+    averaged = load_case(config, ["solver.stress_sampling=2"])
+    assert averaged.case_id != shipped.case_id
+    assert solver_inputs(averaged).settings.stress_sampling == 2
+    assert solver_inputs(shipped).settings.stress_sampling == 1
+    for wrong in ("0", "9", "1.5"):
+        with pytest.raises(ConfigError) as info:
+            load_case(config, [f"solver.stress_sampling={wrong}"])
+        assert "solver.stress_sampling" in str(info.value)

@@ -107,12 +107,13 @@ def test_depth_sums_equal_numpy_contraction():
     full = np.stack([mirrored(kernels[:, d], PARITY[0, d], 2, L1) for d in range(6)], axis=1)
     imaginary = np.array([1, 1, 1, 1, 1j, 1j])[None, :, None, None, None]
     expected = np.einsum("dmab,qdmab->qab", spec, imaginary * full)
+    half = L1 // 2 + 1  # the stored kernel rows
     out = np.full((Q, L1, L2h), np.nan, dtype=complex)
-    depth_sums(spec, kernels, out, 0, L1)
+    depth_sums(spec, kernels, out, 0, half)
     assert_allclose(out, expected, rtol=1e-13, atol=1e-13)
     split = np.full((Q, L1, L2h), np.nan, dtype=complex)
-    depth_sums(spec, kernels, split, 2, L1)  # rows of a second thread: only those written
-    assert np.isnan(split[:, :2]).all()
+    depth_sums(spec, kernels, split, 2, half)  # a second thread's stored row 2: rows 2 and 3
+    assert np.isnan(split[:, [0, 1, 4]]).all() and not np.isnan(split[:, 2:4]).any()
     depth_sums(spec, kernels, split, 0, 2)
     assert_array_equal(split, out)  # the same sums in the same order, whatever the split
 

@@ -20,6 +20,7 @@ from sacflow.config.base import (
     PositiveInt,
     field_error,
 )
+from sacflow.kernels.cell_average import MAX_SAMPLING
 from sacflow.solver.state import (
     INCLUSION_FIELDS,
     INCLUSION_SCALARS,
@@ -116,6 +117,15 @@ class SolverOptions(Model):
     )
     inclusion_max_iterations: PositiveInt = Field(
         1000, description="iteration limit of the equivalent-eigenstrain solve"
+    )
+    stress_sampling: Annotated[int, Field(ge=1, le=MAX_SAMPLING)] = Field(
+        1,
+        description="points per axis of a cell at which the stresses (residual and contact) "
+        "are averaged: 1 (default), the value at the cell centre, as the seed; more, the "
+        "mean over the cell (stress_sampling³ points), the energy-consistent operator, "
+        "which rules out the spurious checkerboard solutions that centre values allow "
+        "under weak hardening (docs/convergence.md); the kernel set-up costs "
+        "stress_sampling³ times more, an iteration the same",
     )
 
 

@@ -121,6 +121,7 @@ def solver_inputs(case: Case, surface: MeasuredSurface | None = None,
         return_integration=opts.return_integration,
         inclusion_tolerance=opts.inclusion_tolerance,
         inclusion_max_iterations=opts.inclusion_max_iterations,
+        stress_sampling=opts.stress_sampling,
     )
     output = OutputPlan(case.output.volume_every, tuple(case.output.every_step))
     conditions = InitialConditions(

@@ -232,8 +232,8 @@ class HalfSpaceEigenstrain:
         sums = np.empty((kernels.shape[0], *spectrum.shape[2:]), dtype=complex)
         from sacflow.kernels.pair_products import depth_sums
 
-        over_ranges(depth_sums, spectrum.shape[2], self.threads, spectrum, kernels, sums,
-                    weight=spectrum.shape[1] * spectrum.shape[3])
+        over_ranges(depth_sums, kernels.shape[3], self.threads, spectrum, kernels, sums,
+                    weight=2 * spectrum.shape[1] * spectrum.shape[3])
         fields = np.empty((kernels.shape[0], n1, n2))
         for q, spectrum2 in enumerate(sums):
             self._fft2.spectrum[0] = spectrum2
