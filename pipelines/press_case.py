@@ -1,6 +1,6 @@
 """Run a case file with overrides at a stress sampling; count the extrema of εp on the axis.
 
-``python notes/press_near_surface/run_case.py CASE.toml SAMPLING [OVERRIDE ...]``
+``python pipelines/press_case.py CASE.toml SAMPLING [OVERRIDE ...]``
 """
 
 from __future__ import annotations

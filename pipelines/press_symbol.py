@@ -1,6 +1,6 @@
 """Energy of the eigenstrain operator's Fourier modes in infinite space, per cell aspect ratio.
 
-``python notes/press_near_surface/symbol.py L SAMPLING RATIO [RATIO ...]``
+``python pipelines/press_symbol.py L SAMPLING RATIO [RATIO ...]``
 
 The stress at the cell centres (SAMPLING 1) or averaged over SAMPLING³ sub-cell centres of the
 target cell, of a unit cuboid (Chiu's closed form), at the offsets of an L³ lattice (cells

@@ -1,13 +1,13 @@
 """A press's final plastic strain: its residual stress on the grid and on a laterally finer one.
 
-``python notes/press_near_surface/refined_traction.py RUN.npz FACTOR [CROP]``
+``python pipelines/press_refined_traction.py RUN.npz FACTOR [CROP]``
 
-RUN.npz from ``run_press.py`` at stress sampling 1. The same piecewise-uniform plastic strain
-(each cell split into FACTOR × FACTOR laterally, FACTOR odd so the coarse centres are fine
-centres; the layers unchanged) gives on the finer grid the same centre stresses except for the
-surface traction that the half-space correction removes: sampled at the centres of finer
-surface cells and applied uniformly over each. CROP cells are
-dropped from each lateral side first (the plastic zone stays inside).
+RUN.npz from ``pipelines/press_run.py`` at stress sampling 1. The same piecewise-uniform
+plastic strain (each cell split into FACTOR × FACTOR laterally, FACTOR odd so the coarse
+centres are fine centres; the layers unchanged) gives on the finer grid the same centre
+stresses except for the surface traction that the half-space correction removes: sampled at
+the centres of finer surface cells and applied uniformly over each. CROP cells are dropped
+from each lateral side first (the plastic zone stays inside).
 Prints the first layers' largest difference and the first layer's residual σ33 on the axis and
 at its minimum.
 """

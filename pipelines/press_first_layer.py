@@ -1,6 +1,6 @@
 """A first-layer cuboid's stress: the operator against the same field on a finer grid.
 
-``python notes/press_near_surface/first_layer.py RATIO``
+``python pipelines/press_first_layer.py RATIO``
 
 A uniform eigenstrain (1e-3 of component 11, 33 or 13) in one first-layer cell (dx/dz = RATIO)
 of a 9 × 9 × 6 box. Centre sampling against the operator on a grid 9 times finer laterally

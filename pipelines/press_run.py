@@ -1,6 +1,6 @@
 """Run the indentation press (600 N) on nx² × nz cells over the shipped box depth.
 
-``python notes/press_near_surface/run_press.py NX NZ SAMPLING [OVERRIDE ...]``
+``python pipelines/press_run.py NX NZ SAMPLING [OVERRIDE ...]``
 
 SAMPLING is ``SolverSettings.stress_sampling`` (1: stresses at the cell centres, as shipped;
 2 or more: cell means). Prints the run time, print depth, largest εp, peak pressure, the
