@@ -170,8 +170,10 @@ def test_returns_shared_out_between_threads_equal_the_single_thread_ones(monkeyp
     """The compiled returns split their points between threads: each point's arithmetic is
     its own, so any split gives the single-thread result bit for bit (step-doubled and one-step,
     increments and returned stresses), iteration counts included."""
+    from sacflow.machine import threads as thread_budget
     from sacflow.mechanics import return_extrapolation, return_mapping
 
+    monkeypatch.setattr(thread_budget, "SPLIT_ITEMS", 1000)  # split these points, not only boxes
     law = law_of(name)
     start, trial, p = states(23, scale=1.6, points=40_000)
     results = {}
@@ -182,7 +184,7 @@ def test_returns_shared_out_between_threads_equal_the_single_thread_ones(monkeyp
         doubled = extrapolated_return(start, trial, p, law, MU)
         results[count] = (one, doubled)
     (one, doubled), (one_split, doubled_split) = results[1], results[threads]
-    assert one.plastic.sum() > 20_000  # enough points for a split (SPLIT_ITEMS)
+    assert one.plastic.sum() > 20_000  # points for every thread
     for a, b in ((one, one_split), (doubled, doubled_split)):
         np.testing.assert_array_equal(a.plastic_strain_increment, b.plastic_strain_increment)
         np.testing.assert_array_equal(a.equivalent_plastic_strain_increment,

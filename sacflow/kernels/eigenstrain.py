@@ -218,7 +218,7 @@ class HalfSpaceEigenstrain:
         from sacflow.kernels.layer_lines import lines_from_box
 
         over_ranges(lines_from_box, n1, self.threads, np.ascontiguousarray(eps),
-                    self._lateral.real[:, :, :n1, :n2], weight=n2 * n3)
+                    self._lateral.real[:, :, :n1, :n2], weight=n2 * n3 * 6)
         for transform in self._depth_forward:
             transform()
         return self._lateral.forward()
@@ -233,7 +233,7 @@ class HalfSpaceEigenstrain:
         from sacflow.kernels.pair_products import depth_sums
 
         over_ranges(depth_sums, kernels.shape[3], self.threads, spectrum, kernels, sums,
-                    weight=2 * spectrum.shape[1] * spectrum.shape[3])
+                    weight=2 * 6 * spectrum.shape[1] * spectrum.shape[3])
         fields = np.empty((kernels.shape[0], n1, n2))
         for q, spectrum2 in enumerate(sums):
             self._fft2.spectrum[0] = spectrum2
@@ -333,7 +333,7 @@ class HalfSpaceEigenstrain:
 
         stress = np.empty((n1, n2, n3, 6))
         over_ranges(box_from_lines, n1, self.threads, self._lateral.real[:, :, :n1, :n2],
-                    stress, weight=n2 * n3)
+                    stress, weight=n2 * n3 * 6)
         return stress
 
 

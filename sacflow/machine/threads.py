@@ -28,10 +28,13 @@ from threadpoolctl import ThreadpoolController
 __all__ = ["SPLIT_ITEMS", "contiguous_ranges", "in_threads", "over_ranges",
            "single_threaded_blas"]
 
-#: Passes over fewer items than this run on the calling thread alone: handing a part to
-#: another thread costs tens of microseconds, what a compiled loop spends on a few thousand
-#: items.
-SPLIT_ITEMS = 1 << 17
+#: Passes over fewer items (float64 entries read, or their equivalent in work) than this run
+#: on the calling thread alone: a pass over arrays that fit in the last-level cache (16 MB
+#: each here, on a cache of 32 MB) is as fast on one thread, and handing a part to another
+#: costs more than it saves (``docs/performance.md``: the 64 × 64 × 32 box's passes split
+#: between two threads made its load step 7 % slower; the 128 × 128 × 64 box's, streamed from
+#: memory, 6 % faster).
+SPLIT_ITEMS = 1 << 21
 
 
 def _controller() -> ThreadpoolController:
