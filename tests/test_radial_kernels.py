@@ -170,16 +170,15 @@ def test_returns_shared_out_between_threads_equal_the_single_thread_ones(monkeyp
     """The compiled returns split their points between threads: each point's arithmetic is
     its own, so any split gives the single-thread result bit for bit (step-doubled and one-step,
     increments and returned stresses), iteration counts included."""
+    from sacflow.kernels import fft
     from sacflow.machine import threads as thread_budget
-    from sacflow.mechanics import return_extrapolation, return_mapping
 
     monkeypatch.setattr(thread_budget, "SPLIT_ITEMS", 1000)  # split these points, not only boxes
     law = law_of(name)
     start, trial, p = states(23, scale=1.6, points=40_000)
     results = {}
     for count in (1, threads):
-        monkeypatch.setattr(return_mapping, "default_threads", lambda count=count: count)
-        monkeypatch.setattr(return_extrapolation, "default_threads", lambda count=count: count)
+        monkeypatch.setattr(fft, "default_threads", lambda count=count: count)  # both returns
         one = return_map(trial, p, law, MU)
         doubled = extrapolated_return(start, trial, p, law, MU)
         results[count] = (one, doubled)

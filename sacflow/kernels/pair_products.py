@@ -128,8 +128,8 @@ def depth_sums(spec: np.ndarray, kernels: np.ndarray, out: np.ndarray, first: in
         overwritten).
     """
     Q, M, L1, L2h = kernels.shape[0], spec.shape[1], spec.shape[2], spec.shape[3]
-    # the mirrored rows i = L1 - r of the stored rows r (0 < r < i), ascending (a stream the
-    # memory prefetches; descending rows were half as fast)
+    # the mirrored rows i = L1 - r of the stored rows r (0 < r < i), swept ascending: the
+    # memory prefetches an ascending stream better than a descending one (docs/performance.md)
     lo, hi = max(L1 - last + 1, L1 // 2 + 1), min(L1 - first + 1, L1)
     out[:, first:last] = 0.0
     out[:, lo:hi] = 0.0

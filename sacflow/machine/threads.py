@@ -30,10 +30,9 @@ __all__ = ["SPLIT_ITEMS", "contiguous_ranges", "in_threads", "over_ranges",
 
 #: Passes over fewer items (float64 entries read, or their equivalent in work) than this run
 #: on the calling thread alone: a pass over arrays that fit in the last-level cache (16 MB
-#: each here, on a cache of 32 MB) is as fast on one thread, and handing a part to another
-#: costs more than it saves (``docs/performance.md``: the 64 × 64 × 32 box's passes split
-#: between two threads made its load step 7 % slower; the 128 × 128 × 64 box's, streamed from
-#: memory, 6 % faster).
+#: each, half of a common 32 MB cache) is as fast on one thread, and handing a part to another
+#: costs more than it saves; beyond, the arrays stream from memory and a second thread gains
+#: (the measurements: ``docs/performance.md``, "Two threads on a strongly plastic step").
 SPLIT_ITEMS = 1 << 21
 
 

@@ -34,8 +34,6 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from sacflow.kernels.fft import default_threads
-from sacflow.machine.threads import over_ranges
 from sacflow.mechanics.hardening import HardeningLaw, KinematicLaw
 from sacflow.mechanics.return_mapping import (
     MAX_ITERATIONS,
@@ -90,7 +88,9 @@ def extrapolated_return(start_stress: FloatArray, trial_stress: FloatArray,
         ≥ 0, backstress with kinematic hardening); ``stress`` is None; ``plastic`` the one-step
         return's points (a point elastic over the full step is elastic over both halves).
     """
-    from sacflow.mechanics.radial_kernels import compiled_law, step_doubled_points  # numba
+    from sacflow.kernels.fft import default_threads  # with numba: plastic points only
+    from sacflow.machine.threads import over_ranges
+    from sacflow.mechanics.radial_kernels import compiled_law, step_doubled_points
 
     with_backstress = kinematic is not None
     if full is None:

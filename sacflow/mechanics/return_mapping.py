@@ -49,8 +49,6 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from sacflow.kernels.fft import default_threads
-from sacflow.machine.threads import over_ranges
 from sacflow.mechanics.hardening import (
     HardeningLaw,
     KinematicLaw,
@@ -305,7 +303,11 @@ def isotropic_return(sig2: FloatArray, lead: tuple[int, ...], p_old: FloatArray,
     if idx.size == 0:
         return ReturnResult(sig2.reshape(shape).copy() if with_stress else None,
                             np.zeros(shape), np.zeros(lead), plastic, 0)
-    from sacflow.mechanics.radial_kernels import returned_into, scaled_deviators_into  # numba
+    # numba, pyfftw's thread count and the pool: plastic points only (a material point's
+    # return, in the comparison stages, imports none of them)
+    from sacflow.kernels.fft import default_threads
+    from sacflow.machine.threads import over_ranges
+    from sacflow.mechanics.radial_kernels import returned_into, scaled_deviators_into
 
     q_pl = q_tr[idx]
     d_pl = None if d_all is None else d_all[idx]
