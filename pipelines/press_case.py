@@ -5,24 +5,32 @@
 
 from __future__ import annotations
 
-import dataclasses
+import argparse
 import sys
 import time
 
 import numpy as np
 
 from sacflow.config.solver_inputs import solver_inputs
+from sacflow.errors import InputError
 from sacflow.solver.simulation import Simulation
 from sacflow.storage.case_file import load_case
 
 
 def main(argv: list[str]) -> None:
     """Run and print the largest εp and the number of extrema of its axis profile."""
-    path, sampling, *overrides = argv
-    inputs = solver_inputs(load_case(path, overrides))
-    settings = dataclasses.replace(inputs.settings, stress_sampling=int(sampling))
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("path", help="case file (TOML)")
+    parser.add_argument("sampling", type=int, help="solver.stress_sampling (1 = centre)")
+    parser.add_argument("overrides", nargs="*", help="overrides KEY=VALUE")
+    args = parser.parse_args(argv)
+    sampling, overrides = args.sampling, args.overrides
+    try:
+        case = load_case(args.path, [*overrides, f"solver.stress_sampling={sampling}"])
+    except InputError as exc:
+        sys.exit(str(exc))
     start = time.time()
-    sim = Simulation(dataclasses.replace(inputs, settings=settings))
+    sim = Simulation(solver_inputs(case))
     states = list(sim.run())
     elapsed = time.time() - start
     x1, x3 = sim.coords.x1, sim.coords.x3

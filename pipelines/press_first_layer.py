@@ -12,6 +12,7 @@ component [MPa per 1e-3] and the reference's largest value.
 
 from __future__ import annotations
 
+import argparse
 import sys
 
 import numpy as np
@@ -45,7 +46,9 @@ def stresses(ratio: float, source: int) -> dict[str, np.ndarray]:
 
 def main(argv: list[str]) -> None:
     """Print the first-layer errors of both samplings for sources 11, 33 and 13."""
-    ratio = float(argv[0])
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("ratio", type=float, help="cell aspect ratio dx/dz")
+    ratio = parser.parse_args(argv).ratio
     for source in (0, 2, 4):
         out = stresses(ratio, source)
         for a, b in (("centre", "centre ref"), ("mean s2", "mean ref")):

@@ -14,7 +14,9 @@ at its minimum.
 
 from __future__ import annotations
 
+import argparse
 import sys
+from pathlib import Path
 
 import numpy as np
 
@@ -25,9 +27,17 @@ E, NU = 219e9, 0.3
 
 def main(argv: list[str]) -> None:
     """Compare the coarse and the refined residual stress of a stored plastic strain."""
-    data = np.load(argv[0])
-    factor = int(argv[1])
-    crop = int(argv[2]) if len(argv) > 2 else 0
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("run", type=Path, help="RUN.npz written by pipelines/press_run.py")
+    parser.add_argument("factor", type=int, help="lateral refinement (odd)")
+    parser.add_argument("crop", type=int, nargs="?", default=0, help="cells dropped per side")
+    args = parser.parse_args(argv)
+    if not args.run.is_file():
+        parser.error(f"{args.run} is not a file: run pipelines/press_run.py first")
+    if args.factor < 1 or args.factor % 2 == 0:
+        parser.error("factor must be an odd whole number >= 1 (coarse centres stay fine centres)")
+    data = np.load(args.run)
+    factor, crop = args.factor, args.crop
     eps = data["eps"]
     n1 = eps.shape[0]
     keep = slice(crop, n1 - crop)

@@ -1,16 +1,17 @@
 """Run the indentation press (600 N) on nx² × nz cells over the shipped box depth.
 
-``python pipelines/press_run.py NX NZ SAMPLING [OVERRIDE ...]``
+``python pipelines/press_run.py NX NZ SAMPLING [OVERRIDE ...] [--out DIR]``
 
-SAMPLING is ``SolverSettings.stress_sampling`` (1: stresses at the cell centres, as shipped;
-2 or more: cell means). Prints the run time, print depth, largest εp, peak pressure, the
-residual σ33 and εp on the axis (first 20 layers) and the first layer's σ33 (axis, minimum)
-and writes the final fields to /tmp/press/run_<tag>.npz.
+SAMPLING is ``solver.stress_sampling`` (1: stresses at the cell centres, as shipped; 2 or
+more: cell means). Prints the run time, print depth, largest εp, peak pressure, the residual
+σ33 and εp on the axis (first 20 layers) and the first layer's σ33 (axis, minimum) and writes
+the final fields to DIR/run_<tag>.npz (default DIR: runs/press-near-surface); a file already
+there is kept, and the run refused.
 """
 
 from __future__ import annotations
 
-import dataclasses
+import argparse
 import sys
 import time
 from pathlib import Path
@@ -18,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from sacflow.config.solver_inputs import solver_inputs
+from sacflow.errors import InputError
 from sacflow.solver.simulation import Simulation
 from sacflow.studies.convergence import STUDY_CASES, base_case, shipped_discretisation
 
@@ -26,15 +28,28 @@ CASE = STUDY_CASES["dent-from-indentation-press"]
 
 def main(argv: list[str]) -> None:
     """Run one grid and print its numbers."""
-    nx, nz, sampling = int(argv[0]), int(argv[1]), int(argv[2])
-    extra = argv[3:]
-    depth = shipped_discretisation(base_case(CASE)).depth
-    case = base_case(CASE, [f"grid.nx={nx}", f"grid.ny={nx}", f"grid.nz={nz}",
-                            f"grid.depth={depth!r}", *extra])
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("nx", type=int, help="lateral cells per side")
+    parser.add_argument("nz", type=int, help="layers")
+    parser.add_argument("sampling", type=int, help="solver.stress_sampling (1 = centre)")
+    parser.add_argument("extra", nargs="*", help="further overrides KEY=VALUE")
+    parser.add_argument("--out", type=Path, default=Path("runs/press-near-surface"))
+    args = parser.parse_args(argv)
+    nx, nz, sampling, extra = args.nx, args.nz, args.sampling, args.extra
+    tag = (f"{nx}x{nz}_s{sampling}"
+           + "".join("_" + e.replace("=", "-") for e in extra))
+    target = args.out / f"run_{tag}.npz"
+    if target.exists():
+        sys.exit(f"{target} exists: kept; remove it or pass another --out to run again")
+    try:
+        depth = shipped_discretisation(base_case(CASE)).depth
+        case = base_case(CASE, [f"grid.nx={nx}", f"grid.ny={nx}", f"grid.nz={nz}",
+                                f"grid.depth={depth!r}", f"solver.stress_sampling={sampling}",
+                                *extra])
+    except InputError as exc:
+        sys.exit(str(exc))
     start = time.time()
-    inputs = solver_inputs(case)
-    settings = dataclasses.replace(inputs.settings, stress_sampling=sampling)
-    sim = Simulation(dataclasses.replace(inputs, settings=settings))
+    sim = Simulation(solver_inputs(case))
     setup = time.time() - start
     states = list(sim.run())
     elapsed = time.time() - start
@@ -43,10 +58,8 @@ def main(argv: list[str]) -> None:
     i, j = int(np.argmin(np.abs(x1))), int(np.argmin(np.abs(x2)))
     ep = sim.equivalent_plastic_strain
     u = states[-1].surface["residual_displacement"]
-    tag = (f"{nx}x{nz}_s{sampling}"
-           + "".join("_" + e.replace("=", "-") for e in extra))
-    Path("/tmp/press").mkdir(exist_ok=True)
-    np.savez(f"/tmp/press/run_{tag}.npz", res=residual, ep=ep, x1=x1, x2=x2, x3=x3, u=u,
+    args.out.mkdir(parents=True, exist_ok=True)
+    np.savez(target, res=residual, ep=ep, x1=x1, x2=x2, x3=x3, u=u,
              eps=states[-1].volume["plastic_strain"])
     converged = all(s.scalars().get("converged", True) for s in states)
     peak = max(s.max_pressure for s in states)

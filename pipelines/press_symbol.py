@@ -13,6 +13,7 @@ the J2 plastic problem (3/2 · 2μ · |min|).
 
 from __future__ import annotations
 
+import argparse
 import sys
 
 import numpy as np
@@ -44,9 +45,14 @@ def mode_energy(size: int, sampling: int, ratio: float) -> np.ndarray:
 
 def main(argv: list[str]) -> None:
     """Print the compression mode's energies for each aspect ratio."""
-    size, sampling = int(argv[0]), int(argv[1])
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("size", type=int, help="lattice points per axis")
+    parser.add_argument("sampling", type=int, help="points per axis of the cell mean (1 = centre)")
+    parser.add_argument("ratios", type=float, nargs="+", help="cell aspect ratios dx/dz")
+    args = parser.parse_args(argv)
+    size, sampling, ratios = args.size, args.sampling, args.ratios
     half = size // 2
-    for ratio in (float(a) for a in argv[2:]):
+    for ratio in ratios:
         nn = mode_energy(size, sampling, ratio)
         threshold = -1.5 * 2 * MU * min(float(nn.min()), 0.0)
         print(f"s={sampling} dx/dz={ratio}: min n:K:n {nn.min():+.4f}, checkerboard "
