@@ -121,3 +121,35 @@ def test_a_deepened_history_mixes_as_one_that_was_deep_from_the_start():
         rolled = kept.step(x, gx)  # the depth-2 mixer: from the 4th step on, another one
         assert np.array_equal(step, rolled) == (k < 3)
     assert shallow.depth == 4
+
+
+def test_a_shaped_support_grows_by_a_margin_and_mixes_as_dense_vectors():
+    """Given the vectors' shape, a growing support is widened by SUPPORT_MARGIN cells along the
+    axes but the last: a zone spreading by one cell a step is laid out again less often, the
+    iterates are still the dense least-squares ones and zero where no vector was ever nonzero."""
+    rng = np.random.default_rng(12)
+    shape, depth = (12, 12, 6, 3), 4
+    shaped, flat = AndersonMixer(depth, 0.8, shape=shape), AndersonMixer(depth, 0.8)
+    layouts = {"shaped": 0, "flat": 0}
+    xs, fs, ever = [], [], np.zeros(shape, dtype=bool)
+    for k in range(8):  # a box of nonzeros growing by one cell along each axis
+        x, gx = np.zeros(shape), np.zeros(shape)
+        x[: 3 + k, : 3 + k, : 1 + k // 2] = rng.standard_normal((3 + k, 3 + k, 1 + k // 2, 3))
+        gx[: 4 + k, : 3 + k, : 1 + k // 2] = rng.standard_normal((4 + k, 3 + k, 1 + k // 2, 3))
+        ever |= (x != 0) | (gx != 0)
+        xs.append(x.ravel())
+        fs.append((gx - x).ravel())
+        keep = min(k, depth) + 1
+        expected = xs[0] + 0.8 * fs[0] if k == 0 else reference_step(xs[-keep:], fs[-keep:], 0.8)
+        for name, mixer in (("shaped", shaped), ("flat", flat)):
+            before = mixer._support.size
+            out = mixer.step(x.ravel(), gx.ravel())
+            layouts[name] += mixer._support.size != before
+            assert_allclose(out, expected, rtol=1e-9, atol=1e-9)
+            assert not out[~ever.ravel()].any()
+    kept = np.isin(np.arange(x.size), shaped._support).reshape(shape)
+    grown = np.zeros(shape, dtype=bool)
+    grown[:12, :11, :5] = True  # every nonzero so far (:11, :10, :4) grown by one cell
+    assert kept[ever].all() and not kept[~grown].any()
+    assert layouts["shaped"] < layouts["flat"] == 8
+

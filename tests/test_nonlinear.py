@@ -248,3 +248,58 @@ def test_sweeps_that_do_not_stall_are_not_deepened():
             for depth in (5, 20)]
     assert runs[0].sweeps == runs[1].sweeps
     assert np.array_equal(runs[0].x, runs[1].x)
+
+
+def test_an_evaluation_that_keeps_g_of_x_never_sees_it_overwritten(monkeypatch):
+    """The sweep writes the next Anderson iterate into G(x)'s memory only when nothing else
+    holds G(x) (or the array it views): arrays an evaluation keeps stay as it returned them,
+    and the iterates are those of fresh arrays."""
+    from sacflow.solver import nonlinear
+
+    evaluate, exact, _ = linear_problem(seed=3)
+    kept, copies, reused = [], [], []
+    step = nonlinear.AndersonMixer.step
+
+    def recording(self, x, gx, out=None):
+        reused.append(out is not None)
+        return step(self, x, gx, out)
+
+    monkeypatch.setattr(nonlinear.AndersonMixer, "step", recording)
+
+    def keeping(x):  # keeps a view of G(x)
+        ev = evaluate(x)
+        kept.append(ev.gx[:])
+        copies.append(ev.gx.copy())
+        return ev
+
+    out = solve_fixed_point(keeping, np.zeros_like(exact), below_tol, max_iterations=200,
+                            anderson_depth=5)
+    assert all(np.array_equal(k, c) for k, c in zip(kept, copies, strict=True))
+    assert reused and not any(reused)
+    reused.clear()
+    fresh = solve_fixed_point(evaluate, np.zeros_like(exact), below_tol, max_iterations=200,
+                              anderson_depth=5)
+    assert reused and all(reused)
+    assert np.array_equal(out.x, fresh.x) and out.sweeps == fresh.sweeps
+
+
+def test_g_of_x_held_by_the_sweep_alone_takes_the_next_iterate():
+    """What decides the reuse: an array (or a view of an unshared array) held by one name."""
+    from sacflow.solver.nonlinear import _only_reference
+
+    fresh = np.zeros(12)
+    assert _only_reference(fresh)
+    other = fresh  # a second name
+    assert not _only_reference(fresh)
+    del other
+    view = np.zeros(12).reshape(3, 4)  # the array behind it held by the view alone
+    assert _only_reference(view)
+    behind = np.zeros(12)
+    view_of_shared = behind.reshape(3, 4)
+    assert not _only_reference(view_of_shared)
+    assert not _only_reference(np.zeros(12)[::2])  # not contiguous
+    assert not _only_reference(np.zeros(12, dtype=np.float32))
+    read_only = np.zeros(12)
+    read_only.flags.writeable = False
+    assert not _only_reference(read_only)
+    assert behind.size == 12

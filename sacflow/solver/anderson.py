@@ -10,6 +10,7 @@ plain (Picard) iteration solves in hundreds of sweeps (seed §2.5).
 from __future__ import annotations
 
 from collections import deque
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -21,7 +22,13 @@ from sacflow.solver.vector_passes import (
     scatter_support,
 )
 
-__all__ = ["AndersonMixer"]
+__all__ = ["SUPPORT_MARGIN", "AndersonMixer"]
+
+#: Cells by which a growing support is widened around the vectors' nonzeros (along every axis of
+#: ``shape`` but the last, the components). The plastic zone grows by about a cell a sweep in the
+#: first sweeps of an increment, and every growth lays each stored vector out anew (a pass over
+#: the whole history); with the margin the support is laid out a few times an increment instead.
+SUPPORT_MARGIN = 1
 
 
 class AndersonMixer:
@@ -33,6 +40,9 @@ class AndersonMixer:
         Number of previous residual differences kept (``0`` = plain Picard iteration).
     mixing : float
         Relaxation β in ``x⁺ = x + β f − (ΔX + β ΔF) γ``.
+    shape : sequence of int, optional
+        Shape of the vectors (flat in C order when fed), e.g. ``(n1, n2, n3, 6)``: a support
+        that grows is then widened by :data:`SUPPORT_MARGIN` cells along its axes but the last.
 
     Notes
     -----
@@ -41,14 +51,20 @@ class AndersonMixer:
     so is the next iterate. The plastic strain increment is nonzero in the plastic zone only,
     a small part of the cuboid box (a tenth at 128 × 128 × 64 cuboids): the history takes that
     part of the memory and of the time of full vectors, with the same result to rounding.
+    Given the vectors' ``shape``, a support that grows takes every cell within
+    :data:`SUPPORT_MARGIN` of the new nonzeros at once (zero entries, which change no iterate):
+    at 128 × 128 × 64 cuboids under a strongly plastic step the history is then laid out 4
+    times in 24 sweeps instead of 12, for a support 7 % larger.
     The passes over the vectors (gathers, differences, the mixing, the scatter back) are
     compiled loops shared out between threads (:mod:`sacflow.solver.vector_passes`) with
     numpy's operations in numpy's order: the iterates are those of the numpy expressions.
     """
 
-    def __init__(self, depth: int = 5, mixing: float = 1.0):
+    def __init__(self, depth: int = 5, mixing: float = 1.0,
+                 shape: Sequence[int] | None = None):
         self.depth = depth
         self.mixing = mixing
+        self._shape = tuple(shape) if shape is not None and len(shape) > 1 else None
         self._dx: deque[np.ndarray] = deque(maxlen=max(depth, 1))
         self._df: deque[np.ndarray] = deque(maxlen=max(depth, 1))
         self._gram = np.zeros((0, 0))  # ΔF^T ΔF, updated one column at a time
@@ -94,6 +110,8 @@ class AndersonMixer:
             return
         new = x != 0.0
         new |= gx != 0.0
+        if self._shape is not None:
+            new = _widened_mask(new, self._shape, SUPPORT_MARGIN)
         new |= kept
         # sorted: the union of the old support and the nonzeros; indices of 32 bits when they
         # fit (half the memory of the support, and of the old entries' places in it)
@@ -127,8 +145,11 @@ class AndersonMixer:
         new[:, m - 1] = row
         self._gram = new
 
-    def step(self, x: np.ndarray, gx: np.ndarray) -> np.ndarray:
+    def step(self, x: np.ndarray, gx: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
         """Return the next iterate from the current ``x`` and ``G(x)`` (flat arrays).
+
+        With ``out`` (a flat float vector of their size, e.g. ``gx`` itself when the caller has
+        no further use for it) the iterate is written there once ``x`` and ``gx`` are read.
 
         The least-squares problem ``min_γ ‖f − ΔF γ‖`` is solved through its normal equations
         with the cached Gram matrix ``ΔF^T ΔF`` (a pseudo-inverse drops directions below 1e-13 of
@@ -156,4 +177,24 @@ class AndersonMixer:
             gamma = np.linalg.pinv(self._gram, rcond=1e-13, hermitian=True) @ rhs
             for g, dx_k, df_k in zip(gamma, self._dx, self._df, strict=True):
                 mix_subtract(mixed, dx_k, df_k, float(g), self.mixing)
-        return scatter_support(mixed, support, x.size)
+        return scatter_support(mixed, support, x.size, out)
+
+
+def _widened_mask(mask: np.ndarray, shape: tuple[int, ...], margin: int) -> np.ndarray:
+    """Flat ``mask`` widened to every entry of a cell within ``margin`` cells of a marked one.
+
+    The cells are the entries of ``shape`` but its last axis (the components): a cell is marked
+    if any of its entries is, the marked cells are dilated by a box of ``margin`` cells along
+    each axis (ORed with their neighbours, not wrapped round the ends), and every entry of a
+    marked cell is returned marked.
+    """
+    cells: np.ndarray = np.asarray(mask.reshape(shape).any(axis=-1))
+    for axis in range(cells.ndim):
+        for _ in range(margin):
+            ahead = tuple(slice(1, None) if a == axis else slice(None) for a in range(cells.ndim))
+            behind = tuple(slice(None, -1) if a == axis else slice(None)
+                           for a in range(cells.ndim))
+            shifted = cells[behind].copy()
+            cells[behind] |= cells[ahead]
+            cells[ahead] |= shifted
+    return np.broadcast_to(cells[..., None], shape).reshape(-1)

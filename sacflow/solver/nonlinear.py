@@ -26,6 +26,7 @@ the relative residual it converges on, and any data its Jacobian needs.
 from __future__ import annotations
 
 import logging
+import sys
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -33,6 +34,10 @@ from typing import Any
 import numpy as np
 
 from sacflow.solver.anderson import AndersonMixer
+
+#: References to an array held by one name only, as ``sys.getrefcount`` counts them: the name
+#: and the function's argument.
+_OWN_REFERENCES = 2
 
 __all__ = [
     "Evaluation",
@@ -171,7 +176,7 @@ def solve_fixed_point(
     ev = evaluate(x)
     newton, previous, best, stalled = False, np.inf, np.inf, 0
     sweeps = newton_steps = 0
-    mixer = AndersonMixer(anderson_depth) if anderson_depth else None
+    mixer = AndersonMixer(anderson_depth, shape=shape) if anderson_depth else None
     for iteration in range(1, max_iterations + 1):
         if converged(x, ev):
             return FixedPointResult(x, ev, sweeps, newton_steps)
@@ -203,12 +208,36 @@ def solve_fixed_point(
                 mixer.reset()
         gx = ev.gx
         del ev  # its other fields (box-size arrays) freed before the mixing and the next
-        x = gx if mixer is None else mixer.step(x.ravel(), gx.ravel()).reshape(shape)
-        del gx  # evaluation make their own
+        if mixer is None:  # evaluation make their own
+            x = gx
+        else:  # G(x) takes the next iterate if nothing else holds it
+            spare = gx.ravel() if _only_reference(gx) else None
+            x = mixer.step(x.ravel(), gx.ravel(), spare).reshape(shape)
+            del spare
+        del gx
         ev = evaluate(x)
         sweeps += 1
         log.debug("%s sweep %d: residual %.3e", label, iteration, ev.residual)
     raise FixedPointError(ev.residual, max_iterations)
+
+
+def _only_reference(gx: np.ndarray) -> bool:
+    """Whether ``gx`` (and the array it views, if any) is held by the caller's name alone.
+
+    Then its memory can take the next iterate: nothing else (an evaluation's by-products, a
+    view of it) can see the change. ``gx`` a view of an array that is itself a view: False.
+    """
+    if not (gx.flags.writeable and gx.flags.c_contiguous and gx.dtype == np.float64):
+        return False
+    # the caller's name, this argument and the frame's own reference to the argument
+    if sys.getrefcount(gx) > _OWN_REFERENCES + 1:
+        return False
+    base = gx.base
+    if base is None:
+        return True
+    # gx's reference to it, the local name and the argument
+    return (isinstance(base, np.ndarray) and base.base is None
+            and sys.getrefcount(base) <= _OWN_REFERENCES + 1)
 
 
 def difference_jacobian(

@@ -198,8 +198,17 @@ def _scatter_support(values: np.ndarray, support: np.ndarray, out: np.ndarray, f
             out[t] = 0.0
 
 
-def scatter_support(values: np.ndarray, support: np.ndarray, size: int) -> np.ndarray:
-    """Return the ``size``-entry vector holding ``values`` on the (sorted) support, 0 off it."""
-    out = np.empty(size)
+def scatter_support(values: np.ndarray, support: np.ndarray, size: int,
+                    out: np.ndarray | None = None) -> np.ndarray:
+    """Return the ``size``-entry vector holding ``values`` on the (sorted) support, 0 off it.
+
+    Written into ``out`` (flat, float, of ``size`` entries, overwritten) if given: a vector the
+    caller is done with, instead of a new one (at 128 × 128 × 64 cuboids a new 50 MB vector is
+    mapped from the kernel and its pages zero-filled as they are first written).
+    """
+    if out is None:
+        out = np.empty(size)
+    elif out.shape != (size,) or out.dtype != np.float64 or not out.flags.c_contiguous:
+        raise ValueError(f"out must be a contiguous float vector of {size} entries")
     over_ranges(_scatter_support, size, threads(), values, support, out)
     return out
