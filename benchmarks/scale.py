@@ -22,15 +22,15 @@ the ten functions of the step with the most own time. ``--hardening=mild`` or ``
 one material only; ``--threads=K`` sets the FFT threads (``SACFLOW_FFT_THREADS``, also the
 threads of the compiled passes over the box); ``--threads=1,2`` runs each thread count in turn
 (``--repeat=R`` times, alternated) and adds ``thread_scaling``: the median step per thread count
-and the speed-up of the most threads over the fewest.
+and the speed-up of the most threads over the fewest. ``--stress-sampling=2`` runs the case with
+cell-averaged stresses (``solver.stress_sampling``: the kernel set-up evaluates 8 times more).
 Usage: ``python benchmarks/scale.py [--profile] [--hardening=H] [--threads=K[,K2]] [--repeat=R]
-[n ...]`` (default 64 128).
+[--stress-sampling=S] [n ...]`` (default 64 128).
 """
 
 from __future__ import annotations
 
 import os
-import sys
 import tempfile
 import time
 
@@ -38,7 +38,7 @@ from _common import emit, hertz_step_case, isolated
 
 
 def one_step(n: int, cache: str, label: str, profile: bool, hardening: str,
-             threads: str | None) -> dict:
+             threads: str | None, sampling: int = 1) -> dict:
     os.environ["SACFLOW_CACHE_DIR"] = cache
     if threads is not None:
         os.environ["SACFLOW_FFT_THREADS"] = threads
@@ -63,7 +63,10 @@ def one_step(n: int, cache: str, label: str, profile: bool, hardening: str,
 
     eigenstrain.HalfSpaceEigenstrain.__init__ = timed_build
     t0 = time.perf_counter()
-    sim = simulation_for(case_from_dict(hertz_step_case(n, hardening=hardening)))
+    case = hertz_step_case(n, hardening=hardening)
+    if sampling != 1:
+        case.setdefault("solver", {})["stress_sampling"] = sampling
+    sim = simulation_for(case_from_dict(case))
     setup = time.perf_counter() - t0
     import resource
 
@@ -82,6 +85,7 @@ def one_step(n: int, cache: str, label: str, profile: bool, hardening: str,
     result = {
         "n": n,
         "hardening": hardening,
+        "stress_sampling": sampling,
         "fft_threads": sim.inputs.settings.fft_threads or default_threads(),
         "cache": label,
         "cuboids": cuboids,
@@ -126,24 +130,38 @@ def thread_scaling(results: list[dict]) -> list[dict]:
     return rows
 
 
-if __name__ == "__main__":
-    args = [a for a in sys.argv[1:] if not a.startswith("--")]
-    options = dict(a[2:].split("=", 1) for a in sys.argv[1:] if a.startswith("--") and "=" in a)
-    profile = "--profile" in sys.argv
-    materials = [options["hardening"]] if "hardening" in options else ["mild", "strong"]
-    thread_counts: list[str | None] = (options["threads"].split(",") if "threads" in options
-                                       else [None])
-    repeats = int(options.get("repeat", "1"))
+def main(argv: list[str] | None = None) -> None:
+    """Parse the options (module notes) and print the JSON of every run."""
+    import argparse
+
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("n", type=int, nargs="*", default=[64, 128],
+                        help="surface cells per side (n × n × n/2 cuboids); default 64 128")
+    parser.add_argument("--profile", action="store_true", help="the step's ten costliest functions")
+    parser.add_argument("--hardening", choices=["mild", "strong"], default=None,
+                        help="one material only (default: both)")
+    parser.add_argument("--threads", default=None,
+                        help="FFT and pass threads, or a comma-separated list run in turn")
+    parser.add_argument("--repeat", type=int, default=1, help="runs of each thread count")
+    parser.add_argument("--stress-sampling", type=int, default=1,
+                        help="solver.stress_sampling of the case (1: centre values, 2: cell mean)")
+    args = parser.parse_args(argv)
+    materials = [args.hardening] if args.hardening else ["mild", "strong"]
+    thread_counts: list[str | None] = args.threads.split(",") if args.threads else [None]
     results = []
-    for n in [int(a) for a in args] or [64, 128]:
+    for n in args.n:
         for hardening in materials:
-            for _ in range(repeats):
+            for _ in range(args.repeat):
                 for threads in thread_counts:  # alternated: a drift of the machine hits all
                     with tempfile.TemporaryDirectory(prefix="sacflow-scale-cache-") as cache:
                         for label in ("cold", "warm"):
-                            results.append(isolated(one_step, n, cache, label, profile,
-                                                    hardening, threads))
+                            results.append(isolated(one_step, n, cache, label, args.profile,
+                                                    hardening, threads, args.stress_sampling))
     extra = {}
     if len(thread_counts) > 1:
         extra["thread_scaling"] = thread_scaling(results)
     emit("scale", results, **extra)
+
+
+if __name__ == "__main__":
+    main()

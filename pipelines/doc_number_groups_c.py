@@ -1,5 +1,6 @@
 """Groups of ``pipelines/record_doc_numbers.py`` for docs/inclusions.md's section on an
-inhomogeneity's own hardening (#30, #33).
+inhomogeneity's own hardening (#30, #33) and docs/convergence.md's tables read from
+``data/convergence*.csv`` (#32).
 
 Each group is a function of the output folder (unused here: the runs are in memory) returning
 ``{key: value in SI units}``; ``record_doc_numbers.GROUPS`` registers it as fast (runs of
@@ -217,12 +218,91 @@ def convergence_together(out: Path) -> dict[str, float]:
     return numbers
 
 
+#: docs/convergence.md's table of centre-sampled against cell-averaged stresses: case -> key stem.
+CELL_MEAN_CASES = {"nanoindentation-650mN": "650mN", "nanoindentation-190mN": "190mN",
+                   "nanoindentation-linear-650mN": "linear", "nanoindentation-perfect-650mN":
+                   "perfect", "dent-from-indentation-press": "press"}
+#: Its quantities: quantity -> key stem.
+CELL_MEAN_QUANTITIES = {"print_depth": "print_depth", "peak_pressure": "peak_pressure",
+                        "max_plastic_strain": "max_eqps"}
+#: The summaries compared: stem -> file of data/ (the same study, ``--set
+#: solver.stress_sampling=2`` for the cell mean).
+CELL_MEAN_SUMMARIES = {"centre": "convergence-summary.csv",
+                       "cell": "convergence-cell-mean-summary.csv"}
+
+
+def convergence_cell_mean(out: Path) -> dict[str, float]:
+    """The lateral and layers sequences with centre-sampled and cell-averaged stresses.
+
+    For each case, quantity and sequence of :data:`CELL_MEAN_CASES` and
+    :data:`CELL_MEAN_QUANTITIES`: the observed order and the shipped error of each summary of
+    :data:`CELL_MEAN_SUMMARIES`, where the sequence converged monotonically (a diverging or
+    oscillating sequence has neither); keys ``cellmean_{case}_{quantity}_{sequence}_{summary}``
+    ``_order`` and ``_error``. And the press's print depth at the three levels of its cell-mean
+    layers sequence (``cellmean_press_print_depth_layers_level{0,1,2}``).
+    """
+    import csv
+
+    numbers: dict[str, float] = {}
+    for stem, name in CELL_MEAN_SUMMARIES.items():
+        with open(ROOT / "data" / name, newline="", encoding="utf-8") as f:
+            rows = list(csv.DictReader(f))
+        for r in rows:
+            case, quantity = CELL_MEAN_CASES.get(r["case"]), CELL_MEAN_QUANTITIES.get(r["quantity"])
+            if case is None or quantity is None or r["sequence"] not in ("lateral", "layers"):
+                continue
+            if not r["order"]:
+                continue
+            key = f"cellmean_{case}_{quantity}_{r['sequence']}_{stem}"
+            numbers[f"{key}_order"] = float(r["order"])
+            numbers[f"{key}_error"] = float(r["shipped_error"])
+    with open(ROOT / "data" / "convergence-cell-mean.csv", newline="", encoding="utf-8") as f:
+        for r in csv.DictReader(f):
+            if (r["case"], r["sequence"], r["quantity"]) == ("dent-from-indentation-press",
+                                                             "layers", "print_depth"):
+                numbers[f"cellmean_press_print_depth_layers_level{r['level']}"] = float(
+                    r["value"])
+    return numbers
+
+
+def convergence_cell_mean_together(out: Path) -> dict[str, float]:
+    """The together sequence with cell-averaged stresses, read back from
+    ``data/convergence-cell-mean-together-summary.csv`` and ``-together.csv``: for each case of
+    :data:`CELL_MEAN_CASES` and quantity of :data:`TOGETHER` that converged monotonically, the
+    order, limit, relative uncertainty, shipped error and finest level's error (keys
+    ``cellmean_together_{case}_{quantity}_...``)."""
+    import csv
+
+    def rows(name: str) -> list[dict[str, str]]:
+        with open(ROOT / "data" / name, newline="", encoding="utf-8") as f:
+            return list(csv.DictReader(f))
+
+    summary = rows("convergence-cell-mean-together-summary.csv")
+    levels = rows("convergence-cell-mean-together.csv")
+    numbers: dict[str, float] = {}
+    for r in summary:
+        case, stem = CELL_MEAN_CASES.get(r["case"]), TOGETHER.get(r["quantity"])
+        if case is None or stem is None or not r["order"]:
+            continue
+        key = f"cellmean_together_{case}_{stem}"
+        numbers[f"{key}_order"] = float(r["order"])
+        numbers[f"{key}_limit"] = float(r["limit"])
+        numbers[f"{key}_uncertainty"] = float(r["relative_uncertainty"])
+        numbers[f"{key}_shipped_error"] = float(r["shipped_error"])
+        finest = [v for v in levels if (v["case"], v["quantity"], v["level"])
+                  == (r["case"], r["quantity"], "2")]
+        numbers[f"{key}_finest_error"] = float(finest[0]["relative_error"])
+    return numbers
+
+
 #: The groups of this module: name -> (speed, function of the output folder).
 GROUPS = {
     "own_hardening_checks": ("fast", own_hardening_checks),
     "own_hardening_material_point": ("slow", own_hardening_material_point),
     "own_hardening_cost": ("slow", own_hardening_cost),
     "convergence_together": ("fast", convergence_together),
+    "convergence_cell_mean": ("fast", convergence_cell_mean),
+    "convergence_cell_mean_together": ("fast", convergence_cell_mean_together),
 }
 
 

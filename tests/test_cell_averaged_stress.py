@@ -27,22 +27,27 @@ MU = E / (2 * (1 + NU))
 COMPRESSION = np.array([1.0, 1.0, -2.0, 0.0, 0.0, 0.0]) / np.sqrt(6.0)
 
 
-def checkerboard_energy(dx_over_dz: float, sampling: int) -> float:
-    """``−Σ ε:σ / (2 μ Σ ε:ε)`` of a compression checkerboard in a deep block of 12³ cells.
+def checkerboard_energy(dx_over_dz: float, sampling: int, direction: np.ndarray = COMPRESSION,
+                        alternate_in_depth: bool = True) -> float:
+    """``−Σ ε:σ / (2 μ Σ ε:ε)`` of a checkerboard of ``direction`` in a deep block of 12³ cells.
 
-    The checkerboard is windowed by a half sine along each axis (a sharp-edged block adds the
-    positive energy of its faces to the mode's own).
+    The checkerboard alternates from cell to cell along x1 and x2, and along x3 too unless
+    ``alternate_in_depth`` is False (then it is smooth in depth). It is windowed by a half sine
+    along each axis (a sharp-edged block adds the positive energy of its faces to the mode's
+    own).
     """
     block, pad, top = 12, 4, 10
     shape = (block + 2 * pad, block + 2 * pad, top + block + pad)
     op = HalfSpaceEigenstrain(shape, (dx_over_dz, dx_over_dz, 1.0), E, NU, threads=1,
                               stress_sampling=sampling)
     cells = np.arange(block)
-    line = (-1.0) ** cells * np.sin(np.pi * (cells + 0.5) / block)
-    mode = line[:, None, None] * line[None, :, None] * line[None, None, :]
+    window = np.sin(np.pi * (cells + 0.5) / block)
+    line = (-1.0) ** cells * window
+    depth = line if alternate_in_depth else window
+    mode = line[:, None, None] * line[None, :, None] * depth[None, None, :]
     eps = np.zeros((*shape, 6))
     lateral = slice(pad, pad + block)
-    eps[lateral, lateral, top:top + block] = mode[..., None] * COMPRESSION
+    eps[lateral, lateral, top:top + block] = mode[..., None] * direction
     stress = op.residual_stress(eps)
     energy = -np.sum(eps * stress * SHEAR_WEIGHTS)
     return float(energy / (2 * MU * np.sum(eps * eps * SHEAR_WEIGHTS)))
@@ -53,6 +58,16 @@ def test_centre_sampling_gives_the_compression_checkerboard_a_negative_energy():
     # operator has a negative energy for this mode; the continuum (and the cell mean) cannot
     assert checkerboard_energy(1.25, 1) < -0.02
     assert checkerboard_energy(1.25, 2) > 0.1
+
+
+def test_centre_sampling_is_indefinite_beyond_the_compression_band():
+    # a lateral checkerboard of ε11 − ε22, smooth in depth: negative energy with centre values
+    # at cubic cells too (where the compression checkerboard's is positive), positive with the
+    # cell mean; the spurious modes of collocation are not the compression's alone
+    in_plane = np.array([1.0, -1.0, 0.0, 0.0, 0.0, 0.0]) / np.sqrt(2.0)
+    assert checkerboard_energy(1.0, 1, COMPRESSION) > 0.05
+    assert checkerboard_energy(1.0, 1, in_plane, alternate_in_depth=False) < -0.2
+    assert checkerboard_energy(1.0, 2, in_plane, alternate_in_depth=False) > 0.01
 
 
 @pytest.mark.parametrize("ratio", [0.44, 1.17, 1.77])
