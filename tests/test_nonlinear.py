@@ -285,21 +285,21 @@ def test_an_evaluation_that_keeps_g_of_x_never_sees_it_overwritten(monkeypatch):
 
 def test_g_of_x_held_by_the_sweep_alone_takes_the_next_iterate():
     """What decides the reuse: an array (or a view of an unshared array) held by one name."""
-    from sacflow.solver.nonlinear import _only_reference
+    from sacflow.solver.nonlinear import only_referenced
 
     fresh = np.zeros(12)
-    assert _only_reference(fresh)
+    assert only_referenced(fresh)
     other = fresh  # a second name
-    assert not _only_reference(fresh)
+    assert not only_referenced(fresh)
     del other
     view = np.zeros(12).reshape(3, 4)  # the array behind it held by the view alone
-    assert _only_reference(view)
+    assert only_referenced(view)
     behind = np.zeros(12)
     view_of_shared = behind.reshape(3, 4)
-    assert not _only_reference(view_of_shared)
-    assert not _only_reference(np.zeros(12)[::2])  # not contiguous
-    assert not _only_reference(np.zeros(12, dtype=np.float32))
+    assert not only_referenced(view_of_shared)
+    assert not only_referenced(np.zeros(12)[::2])  # not contiguous
+    assert not only_referenced(np.zeros(12, dtype=np.float32))
     read_only = np.zeros(12)
     read_only.flags.writeable = False
-    assert not _only_reference(read_only)
+    assert not only_referenced(read_only)
     assert behind.size == 12

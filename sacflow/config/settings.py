@@ -124,8 +124,8 @@ class SolverOptions(Model):
         "are averaged: 1 (default), the value at the cell centre, as the seed; more, the "
         "mean over the cell (stress_sampling³ points), the energy-consistent operator, "
         "which rules out the spurious checkerboard solutions that centre values allow "
-        "under weak hardening (docs/convergence.md); the kernel set-up costs "
-        "stress_sampling³ times more, an iteration the same",
+        "under weak hardening (docs/convergence.md); the kernel set-up evaluates "
+        "stress_sampling³ times more closed forms, an iteration costs the same",
     )
 
 

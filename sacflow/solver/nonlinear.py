@@ -46,6 +46,7 @@ __all__ = [
     "FixedPointResult",
     "NewtonSettings",
     "newton_step",
+    "only_referenced",
     "solve_fixed_point",
 ]
 
@@ -211,7 +212,7 @@ def solve_fixed_point(
         if mixer is None:  # evaluation make their own
             x = gx
         else:  # G(x) takes the next iterate if nothing else holds it
-            spare = gx.ravel() if _only_reference(gx) else None
+            spare = gx.ravel() if only_referenced(gx) else None
             x = mixer.step(x.ravel(), gx.ravel(), spare).reshape(shape)
             del spare
         del gx
@@ -221,7 +222,7 @@ def solve_fixed_point(
     raise FixedPointError(ev.residual, max_iterations)
 
 
-def _only_reference(gx: np.ndarray) -> bool:
+def only_referenced(gx: np.ndarray) -> bool:
     """Whether ``gx`` (and the array it views, if any) is held by the caller's name alone.
 
     Then its memory can take the next iterate: nothing else (an evaluation's by-products, a
