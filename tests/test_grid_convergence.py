@@ -84,3 +84,31 @@ def test_observed_order_of_convergence():
         assert (medium - coarse) * (fine - medium) > 0, f"{name} not monotone: {runs}"
         order = np.log2((medium - coarse) / (fine - medium))
         assert lowest[name] <= order <= 3.0, f"{name}: observed order {order:.2f}, {runs}"
+
+
+#: The perfectly plastic case of the convergence study: the 650 mN indentation with the Swift
+#: law's initial yield stress and no hardening.
+PERFECT = ["body.hardening={law = \"perfectly_plastic\", yield_stress = 1655682245.9028928}"]
+
+
+@pytest.mark.slow
+def test_perfect_plasticity_converges_with_cell_averaged_stresses():
+    """Without hardening nothing offsets a mode that centre-sampled stresses give a negative
+    energy; with the cell mean (``solver.stress_sampling = 2``) the operator is energy-consistent
+    and the print depth converges at the formal order: asserted monotone with
+    1.5 <= p <= 3 on the three doubling grids (2 + 1 increments). Measured on this project's
+    machine: 144.58 / 163.80 / 168.92 nm, p = 1.91 (about 15 s). Centre values give p = 1.97
+    on these coarse grids (144.34 / 164.06 / 169.11 nm): their spurious mode shows at finer
+    layers (the 48-layer level of the convergence study does not finish), not here."""
+    config = CONFIG.parent / "nanoindentation-650mN.toml"
+    depths = []
+    for nx, nz in DOUBLING:
+        case = load_case(config, [*PERFECT, f"grid.nx={nx}", f"grid.ny={nx}", f"grid.nz={nz}",
+                                  "load_path.0.increments=2", "load_path.1.increments=1",
+                                  "solver.stress_sampling=2"])
+        *_, last = simulation_for(case).run()
+        depths.append(float(last.surface["residual_displacement"].max()))
+    coarse, medium, fine = depths
+    assert (medium - coarse) * (fine - medium) > 0, f"not monotone: {depths}"
+    order = np.log2((medium - coarse) / (fine - medium))
+    assert 1.5 <= order <= 3.0, f"observed order {order:.2f}: {depths}"
