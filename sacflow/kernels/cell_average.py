@@ -18,11 +18,11 @@ one-sided), as whole-cell offsets never are. ``sampling = 1`` is the centre, the
 from __future__ import annotations
 
 import itertools
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 
 import numpy as np
 
-__all__ = ["check_sampling", "sub_offsets", "sub_points"]
+__all__ = ["cell_mean", "check_sampling", "sub_offsets", "sub_points"]
 
 #: Largest number of points per axis (the kernel set-up costs ``sampling³`` evaluations).
 MAX_SAMPLING = 8
@@ -48,3 +48,18 @@ def sub_points(sampling: int, spacing: tuple[float, ...]) -> Iterator[tuple[floa
     offsets = sub_offsets(sampling)
     for point in itertools.product(offsets, repeat=len(spacing)):
         yield tuple(float(q * d) for q, d in zip(point, spacing, strict=True))
+
+
+def cell_mean(field: Callable[..., np.ndarray], sampling: int,
+              spacing: tuple[float, ...]) -> np.ndarray:
+    """Mean of ``field(*offset)`` over the sub-cell centres (:func:`sub_points`).
+
+    ``field`` takes one offset [m] per axis of ``spacing`` (from the target cell's centre) and
+    returns an array; with ``sampling = 1`` it is called once, at the centre.
+    """
+    points = list(sub_points(sampling, spacing))
+    total = field(*points[0])
+    for point in points[1:]:
+        total = total + field(*point)
+    mean: np.ndarray = np.asarray(total) / len(points)
+    return mean

@@ -22,7 +22,7 @@ from collections.abc import Sequence
 import numpy as np
 import scipy.fft
 
-from sacflow.kernels.cell_average import sub_points
+from sacflow.kernels.cell_average import cell_mean, sub_points
 from sacflow.kernels.cuboid import PARITY, SHEAR_WEIGHTS
 from sacflow.kernels.cuboid_lattice import CuboidLattice
 from sacflow.kernels.eigenstrain_memory import DEPTH_BLOCK_BYTES, padded_lengths
@@ -313,10 +313,6 @@ def cell_mean_love_stress(x1: np.ndarray, x2: np.ndarray, depth: float,
     its mean over the target cell's ``sampling³`` sub-cell centres; (len(x1), len(x2), 6).
     """
     d1, d2, d3 = spacing
-    if sampling == 1:
-        return rectangle_stress_grid(x1, x2, depth, d1 / 2, d2 / 2, nu)
-    points = list(sub_points(sampling, (d1, d2, d3)))
-    total = sum(rectangle_stress_grid(x1 + p1, x2 + p2, depth + p3, d1 / 2, d2 / 2, nu)
-                for p1, p2, p3 in points)
-    mean: np.ndarray = np.asarray(total) / len(points)
-    return mean
+    return cell_mean(lambda p1, p2, p3: rectangle_stress_grid(x1 + p1, x2 + p2, depth + p3,
+                                                              d1 / 2, d2 / 2, nu),
+                     sampling, (d1, d2, d3))

@@ -259,13 +259,12 @@ def surface_load_stress_coefficients(
     of the target cell (layers ``thickness`` [m] thick, :mod:`sacflow.kernels.cell_average`),
     to pair with the cell-averaged residual stress.
     """
-    from sacflow.kernels.cell_average import sub_points
+    from sacflow.kernels.cell_average import cell_mean
     from sacflow.kernels.surface import rectangle_stress_grid
 
     dx1, dx2 = cell
     h1, h2 = dx1 / 2, dx2 / 2
     depths = np.asarray(depths, dtype=float)
-    points = list(sub_points(sampling, (dx1, dx2, thickness)))
 
     def at_point(d1: np.ndarray, d2: np.ndarray, depth: float) -> np.ndarray:
         x1, x2 = d1 * dx1, d2 * dx2
@@ -277,9 +276,10 @@ def surface_load_stress_coefficients(
     def coefficients(d1: np.ndarray, d2: np.ndarray) -> np.ndarray:
         out = np.empty((depths.size, 6, *np.broadcast_shapes(d1.shape, d2.shape)))
         for k, depth in enumerate(depths):
-            s = sum(at_point(d1 + p1 / dx1, d2 + p2 / dx2, float(depth) + p3)
-                    for p1, p2, p3 in points)
-            out[k] = np.moveaxis(np.asarray(s) / len(points), -1, 0)
+            s = cell_mean(lambda p1, p2, p3, depth=float(depth):
+                          at_point(d1 + p1 / dx1, d2 + p2 / dx2, depth + p3),
+                          sampling, (dx1, dx2, thickness))
+            out[k] = np.moveaxis(s, -1, 0)
         return out.reshape(6 * depths.size, 1, *out.shape[2:])
 
     return coefficients

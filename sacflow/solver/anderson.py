@@ -49,7 +49,8 @@ class AndersonMixer:
     The history is kept on the support of the vectors seen (the entries where some ``x`` or
     ``G(x)`` was nonzero), which only grows: outside it every stored difference is zero, and
     so is the next iterate. The plastic strain increment is nonzero in the plastic zone only,
-    a small part of the cuboid box (a tenth at 128 × 128 × 64 cuboids): the history takes that
+    a part of the cuboid box (at 128 × 128 × 64 cuboids a tenth under a mildly plastic step,
+    half under a strongly plastic one): the history takes that
     part of the memory and of the time of full vectors, with the same result to rounding.
     Given the vectors' ``shape``, a support that grows takes every cell within
     :data:`SUPPORT_MARGIN` of the new nonzeros at once (zero entries, which change no iterate):

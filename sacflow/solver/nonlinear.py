@@ -35,10 +35,6 @@ import numpy as np
 
 from sacflow.solver.anderson import AndersonMixer
 
-#: References to an array held by one name only, as ``sys.getrefcount`` counts them: the name
-#: and the function's argument.
-_OWN_REFERENCES = 2
-
 __all__ = [
     "Evaluation",
     "difference_jacobian",
@@ -222,6 +218,31 @@ def solve_fixed_point(
     raise FixedPointError(ev.residual, max_iterations)
 
 
+def _reference_counts(array: np.ndarray) -> tuple[int, int]:
+    """``sys.getrefcount`` of ``array`` and of the array it views (0 when it views none)."""
+    base = array.base
+    return sys.getrefcount(array), (0 if base is None else sys.getrefcount(base))
+
+
+def _passed_on(array: np.ndarray) -> tuple[int, int]:
+    """:func:`_reference_counts` one call down, as :func:`only_referenced` takes them."""
+    return _reference_counts(array)
+
+
+def _sole_reference_counts() -> tuple[int, int]:
+    """Return the counts of a view held by one name, its array by the view alone.
+
+    Taken through the same calls as :func:`only_referenced`'s, so that whatever references
+    the interpreter counts for names, arguments and frames are counted alike.
+    """
+    held = np.empty(2).reshape(1, 2)
+    return _passed_on(held)
+
+
+#: Reference counts of an array (and of the array it views) that one name holds alone.
+_SOLE = _sole_reference_counts()
+
+
 def only_referenced(gx: np.ndarray) -> bool:
     """Whether ``gx`` (and the array it views, if any) is held by the caller's name alone.
 
@@ -230,15 +251,12 @@ def only_referenced(gx: np.ndarray) -> bool:
     """
     if not (gx.flags.writeable and gx.flags.c_contiguous and gx.dtype == np.float64):
         return False
-    # the caller's name, this argument and the frame's own reference to the argument
-    if sys.getrefcount(gx) > _OWN_REFERENCES + 1:
+    count, base_count = _reference_counts(gx)
+    if count > _SOLE[0]:
         return False
     base = gx.base
-    if base is None:
-        return True
-    # gx's reference to it, the local name and the argument
-    return (isinstance(base, np.ndarray) and base.base is None
-            and sys.getrefcount(base) <= _OWN_REFERENCES + 1)
+    return base is None or (isinstance(base, np.ndarray) and base.base is None
+                            and base_count <= _SOLE[1])
 
 
 def difference_jacobian(
