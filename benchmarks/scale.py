@@ -134,31 +134,43 @@ def main(argv: list[str] | None = None) -> None:
     """Parse the options (module notes) and print the JSON of every run."""
     import argparse
 
+    from sacflow.kernels.cell_average import MAX_SAMPLING
+
+    def positive(text: str) -> int:
+        if not text.isdigit() or int(text) < 1:
+            raise argparse.ArgumentTypeError(f"a whole number of at least 1, got {text!r}")
+        return int(text)
+
+    def thread_counts(text: str) -> list[str]:
+        return [str(positive(part)) for part in text.split(",")]
+
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("n", type=int, nargs="*", default=[64, 128],
+    parser.add_argument("n", type=positive, nargs="*", default=[64, 128],
                         help="surface cells per side (n × n × n/2 cuboids); default 64 128")
     parser.add_argument("--profile", action="store_true", help="the step's ten costliest functions")
     parser.add_argument("--hardening", choices=["mild", "strong"], default=None,
                         help="one material only (default: both)")
-    parser.add_argument("--threads", default=None,
+    parser.add_argument("--threads", type=thread_counts, default=None,
                         help="FFT and pass threads, or a comma-separated list run in turn")
-    parser.add_argument("--repeat", type=int, default=1, help="runs of each thread count")
+    parser.add_argument("--repeat", type=positive, default=1, help="runs of each thread count")
     parser.add_argument("--stress-sampling", type=int, default=1,
-                        help="solver.stress_sampling of the case (1: centre values, 2: cell mean)")
+                        choices=range(1, MAX_SAMPLING + 1), metavar="S",
+                        help=f"solver.stress_sampling of the case, 1 to {MAX_SAMPLING} "
+                        "(1: centre values, 2: cell mean)")
     args = parser.parse_args(argv)
     materials = [args.hardening] if args.hardening else ["mild", "strong"]
-    thread_counts: list[str | None] = args.threads.split(",") if args.threads else [None]
+    counts: list[str | None] = list(args.threads) if args.threads else [None]
     results = []
     for n in args.n:
         for hardening in materials:
             for _ in range(args.repeat):
-                for threads in thread_counts:  # alternated: a drift of the machine hits all
+                for threads in counts:  # alternated: a drift of the machine hits all
                     with tempfile.TemporaryDirectory(prefix="sacflow-scale-cache-") as cache:
                         for label in ("cold", "warm"):
                             results.append(isolated(one_step, n, cache, label, args.profile,
                                                     hardening, threads, args.stress_sampling))
     extra = {}
-    if len(thread_counts) > 1:
+    if len(counts) > 1:
         extra["thread_scaling"] = thread_scaling(results)
     emit("scale", results, **extra)
 
