@@ -190,3 +190,29 @@ def test_returns_shared_out_between_threads_equal_the_single_thread_ones(monkeyp
                                       b.equivalent_plastic_strain_increment)
         assert a.iterations == b.iterations
     np.testing.assert_array_equal(one.stress, one_split.stress)
+
+
+def test_a_large_radial_return_is_shared_out_between_threads(monkeypatch):
+    """The radial return's scatters weigh each plastic point by the box entries it reads and
+    writes (:data:`POINT_ENTRIES`): a plastic zone of SPLIT_ITEMS / POINT_ENTRIES points (a
+    strongly plastic step's half million at 128 × 128 × 64 cuboids is three times that) goes to
+    every thread, where counted as one entry a point it stayed on the calling thread."""
+    from sacflow.kernels import fft
+    from sacflow.machine import threads as thread_budget
+    from sacflow.mechanics.return_mapping import POINT_ENTRIES
+
+    shares = []
+    split = thread_budget.over_ranges
+
+    def recorded(kernel, count, threads, *arguments, weight=1):
+        shares.append((kernel.__name__, count * weight >= thread_budget.SPLIT_ITEMS))
+        return split(kernel, count, threads, *arguments, weight=weight)
+
+    monkeypatch.setattr(thread_budget, "over_ranges", recorded)
+    monkeypatch.setattr(fft, "default_threads", lambda: 2)
+    points = thread_budget.SPLIT_ITEMS // POINT_ENTRIES + 1
+    _, trial, p = states(5, scale=1.6, points=2 * points)
+    result = return_map(trial, p, law_of("linear"), MU)
+    assert result.plastic.sum() >= points
+    assert ("scaled_deviators_into", True) in shares
+    assert ("returned_into", True) in shares

@@ -70,6 +70,12 @@ FloatArray = NDArray[np.float64]
 TOLERANCE = 1e-12
 #: Newton/bisection updates before :class:`ReturnMappingError`.
 MAX_ITERATIONS = 60
+#: Box entries a radial return's scatter reads and writes per plastic point (six stress
+#: components in, six increments out): what :func:`~sacflow.machine.threads.over_ranges`
+#: weighs against the cost of handing a share of the points to another thread (counted as one
+#: entry a point, the half million plastic points of a strongly plastic step at 128 × 128 × 64
+#: cuboids stayed below the split and ran on one thread).
+POINT_ENTRIES = 12
 #: Four units of round-off: the floor of the residual and of the bracket's width.
 EPS4 = 4.0 * np.finfo(float).eps
 
@@ -317,12 +323,13 @@ def isotropic_return(sig2: FloatArray, lead: tuple[int, ...], p_old: FloatArray,
     dep = np.zeros(sig2.shape)
     threads = default_threads()
     over_ranges(scaled_deviators_into, idx.size, threads, sig2, idx, 1.5 * dp / q_pl,
-                dep)  # Δεp = 3/2 Δp s/q_tr
+                dep, weight=POINT_ENTRIES)  # Δεp = 3/2 Δp s/q_tr
     stress = None
     if with_stress:
         ratio = law.yield_stress(p_old[idx] + dp, d_pl) / q_pl  # s_new = s σ_Y(p + Δp)/q_tr
         stress = sig2.copy()
-        over_ranges(returned_into, idx.size, threads, sig2, idx, ratio, stress)
+        over_ranges(returned_into, idx.size, threads, sig2, idx, ratio, stress,
+                    weight=POINT_ENTRIES)
         stress = stress.reshape(shape)
     return ReturnResult(stress, dep.reshape(shape), dp_all.reshape(lead), plastic, iterations)
 
