@@ -3,6 +3,7 @@
     python pipelines/convergence.py [--cases NAME,...] [--sequences NAME,...] [--levels N]
         [--cache DIR] [--table CSV] [--summary CSV] [--plots DIR] [--overwrite]
         [--set KEY=VALUE ...] [--quick] [--all] [--plan]
+        [--check STEP [--against CSV] [--check-table CSV]] [--advise [--target E]]
 
 For each case (:data:`sacflow.studies.convergence.STUDY_CASES`) and each refinement sequence
 (:data:`sacflow.studies.convergence.SEQUENCES`: lateral cells, layers, box depth, increments,
@@ -20,6 +21,14 @@ writes
 
 ``--plan`` lists the levels of each sequence, and which are already cached, and runs nothing.
 
+``--check STEP`` (e.g. ``1/3``: h relative to the coarsest level) runs the level of each
+sequence at that step, one the sequences do not run, and compares each quantity with what a
+finished study's model f∞ + C hᵖ predicts there (``--against``, its summary table; default
+``--summary``): a test of the extrapolation on a level it was not fitted to, written to
+``--check-table`` (default ``data/convergence-check.csv``). ``--advise`` prints, from that
+summary and running nothing, the step at which the model puts each quantity within ``--target``
+(default 0.005, half a percent) of its limit, and the discretisation that step means.
+
 Each run's results are cached as one JSON file in ``--cache`` (default ``runs/convergence``),
 named by the case, the level and a hash of the case file, the overrides and the solver's source
 (:func:`sacflow.studies.convergence.source_fingerprint`): an interrupted study resumes, a subset
@@ -35,6 +44,7 @@ every case (e.g. ``--set solver.fft_threads=1``). See docs/convergence.md.
 from __future__ import annotations
 
 import argparse
+import fractions
 import hashlib
 import json
 import math
@@ -52,6 +62,7 @@ from sacflow.studies.convergence import (
     SEQUENCES,
     STUDY_CASES,
     Discretisation,
+    Refinement,
     StudyCase,
     base_case,
     case_overrides,
@@ -61,17 +72,30 @@ from sacflow.studies.convergence import (
     source_fingerprint,
 )
 from sacflow.studies.convergence_table import (
+    CHECK_COLUMNS,
     LEVEL_COLUMNS,
     SUMMARY_COLUMNS,
     SequenceResult,
+    check_rows,
+    finest_step,
     level_rows,
     plot_errors,
     plot_profiles,
+    read_summary,
     summary_rows,
     write_csv,
 )
+from sacflow.studies.richardson import step_for_error
 
 ROOT = Path(__file__).resolve().parent.parent
+#: Relative error that ``--advise`` finds the discretisation for (issue #32: half a percent).
+TARGET_ERROR = 0.005
+#: Quantities whose limit vanishes at the traction-free surface (the top layers' residual σ33,
+#: shear and hydrostatic stress): a relative error means nothing for them.
+NEAR_ZERO_QUANTITIES = ("residual_s33_layer", "residual_shear_layer", "hydrostatic_layer")
+#: ``--advise`` names no discretisation finer than this step (50 × the coarsest level's cells
+#: along each refined axis): the model's extrapolation that far is no advice.
+SMALLEST_ADVISED_STEP = 0.02
 #: The shipped level of ``--quick``: few layers and increments (two-segment load paths), and
 #: :data:`QUICK_CELLS_PER_RADIUS` surface cells per Hertz radius of the window (its coarsest
 #: lateral level keeps the 8 cells across the contact diameter a case needs).
@@ -115,7 +139,18 @@ def parse(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--all", action="store_true", help="print every quantity")
     parser.add_argument("--plan", action="store_true",
                         help="list the levels (and which are cached), run nothing")
+    parser.add_argument("--check", type=step_fraction, metavar="STEP",
+                        help="run the level at step STEP (e.g. 1/3) and compare with --against")
+    parser.add_argument("--against", type=Path,
+                        help="summary table of the study to check or advise from")
+    parser.add_argument("--check-table", type=Path)
+    parser.add_argument("--advise", action="store_true",
+                        help="print the step each quantity needs for --target, run nothing")
+    parser.add_argument("--target", type=float, default=TARGET_ERROR,
+                        help="relative error of --advise (default %(default)g)")
     args = parser.parse_args(argv)
+    if not 0.0 < args.target < 1.0:
+        parser.error(f"--target must lie between 0 and 1 (a relative error), got {args.target}")
     args.cases = [c.strip() for c in args.cases.split(",") if c.strip()]
     args.sequences = [s.strip() for s in args.sequences.split(",") if s.strip()]
     for name, known in (("case", STUDY_CASES), ("sequence", SEQUENCES)):
@@ -129,11 +164,29 @@ def parse(argv: list[str] | None) -> argparse.Namespace:
     data = out if args.quick else ROOT / "data"
     args.table = args.table or data / "convergence.csv"
     args.summary = args.summary or data / "convergence-summary.csv"
+    args.against = args.against or args.summary
+    args.check_table = args.check_table or data / "convergence-check.csv"
     return args
+
+
+def step_fraction(text: str) -> float:
+    """Parse ``--check``'s step: a fraction (``1/3``) or a decimal in (0, 1]."""
+    try:
+        step = float(fractions.Fraction(text.strip()))
+    except (ValueError, ZeroDivisionError):
+        raise argparse.ArgumentTypeError(f"not a step: {text!r} (give e.g. 1/3 or 0.5)") from None
+    if not 0.0 < step <= 1.0:
+        raise argparse.ArgumentTypeError(f"the step is h relative to the coarsest level, in "
+                                         f"(0, 1]: got {text!r}")
+    return step
 
 
 def study(args: argparse.Namespace) -> int:
     """Run (or read from the cache) every level, then write the tables and plots."""
+    if args.advise:
+        return advise(args)
+    if args.check is not None:
+        return check(args)
     for path in (args.table, args.summary):
         if path.exists() and not (args.overwrite or args.plan):
             raise SacflowError(f"{path} exists: give --overwrite to replace it, or another path")
@@ -170,6 +223,88 @@ def study(args: argparse.Namespace) -> int:
     if args.plots is not None:
         write_plots(results, args.plots)
     return 0
+
+
+def case_setup(args: argparse.Namespace, name: str
+               ) -> tuple[Discretisation, dict[str, Refinement], list[str]]:
+    """The shipped discretisation, the sequences and the overrides of case ``name``."""
+    study_case = STUDY_CASES[name]
+    overrides = [*(quick_overrides(study_case) if args.quick else ()), *args.overrides]
+    case = base_case(study_case, overrides)
+    return shipped_discretisation(case), sequences_for(case), overrides
+
+
+def check(args: argparse.Namespace) -> int:
+    """Run the level at ``--check``'s step of each case and sequence; compare with the model."""
+    if args.check_table.exists() and not args.overwrite:
+        raise SacflowError(f"{args.check_table} exists: give --overwrite to replace it, or "
+                           f"another --check-table")
+    summary = read_summary(args.against)
+    fingerprint = source_fingerprint()
+    rows: list[dict[str, Any]] = []
+    for name in args.cases:
+        base, sequences, overrides = case_setup(args, name)
+        runner = LevelRunner(STUDY_CASES[name], overrides, args.cache, fingerprint)
+        for seq_name in args.sequences:
+            level = sequences[seq_name].at_step(base, args.check)
+            record = runner.record(level)
+            if record is not None:
+                rows.extend(check_rows(name, seq_name, args.check, level, record, summary))
+    if not rows:
+        raise SacflowError(f"nothing to compare: {args.against} has no monotone sequence of "
+                           f"these cases and sequences, or every run failed")
+    write_csv(args.check_table, rows, CHECK_COLUMNS, args.overwrite)
+    print(f"{'case':30s} {'sequence':10s} {'quantity':34s} {'value':>12s} {'predicted':>12s} "
+          f"{'error':>8s} {'predicted':>9s}")
+    for row in rows:
+        if args.all or row["quantity"] in PRINTED:
+            print(f"{row['case']:30s} {row['sequence']:10s} {row['quantity']:34s} "
+                  f"{row['value']:12.5g} {_fmt(row['predicted'], '12.5g')} "
+                  f"{_fmt(100 * row['relative_error'], '+7.3f', '%')} "
+                  f"{_fmt(100 * row['predicted_error'], '+8.3f', '%')}")
+    print(f"table: {args.check_table}")
+    return 0
+
+
+def advise(args: argparse.Namespace) -> int:
+    """Print the step (and discretisation) at which each quantity is within ``--target``."""
+    summary = read_summary(args.against)
+    print(f"within {100 * args.target:g} % of the limit, by the model f∞ + C hᵖ of "
+          f"{args.against} (h relative to the coarsest level):")
+    for name in args.cases:
+        base, sequences, _ = case_setup(args, name)
+        for (case, seq_name, quantity), row in summary.items():
+            if case != name or seq_name not in args.sequences or not (
+                    args.all or quantity in PRINTED):
+                continue
+            step = step_for_error(row["finest_value"], row["limit"], row["order"],
+                                  finest_step(row), args.target)
+            if quantity.startswith(NEAR_ZERO_QUANTITIES):
+                advice = "no relative error: its limit is (nearly) zero, read its values"
+            elif math.isnan(step):
+                advice = f"no order ({row['behaviour']})"
+            elif math.isinf(step):
+                advice = "the finest level is the limit"
+            elif step < SMALLEST_ADVISED_STEP:
+                advice = f"h = {step:.2g}: beyond any grid (order p = {row['order']:.2f})"
+            else:
+                advice = (f"p = {row['order']:5.2f}, h = {step:5.3f}: "
+                          f"{level_near(sequences[seq_name], base, step)}")
+            print(f"  {case:30s} {seq_name:10s} {quantity:34s} {advice}")
+    return 0
+
+
+def level_near(sequence: Refinement, base: Discretisation, step: float) -> str:
+    """The discretisation of ``sequence`` at ``step`` (each refined number rounded up)."""
+    coarsest = sequence.level(base, 0)
+
+    def at(name: str, value: int) -> int:
+        return math.ceil(value / step - 1e-9) if name in sequence.start else value
+
+    increments = "+".join(str(at("increments", n)) for n in coarsest.increments)
+    if "depth" in sequence.start:
+        return f"box depth × {coarsest.depth / base.depth / step:.3g} of the shipped one"
+    return f"{at('nx', coarsest.nx)}² × {at('nz', coarsest.nz)} cells, increments {increments}"
 
 
 def quick_overrides(study_case: StudyCase) -> list[str]:

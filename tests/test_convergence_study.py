@@ -5,7 +5,10 @@
 * the refinement sequences build the levels they say (box depth fixed, or scaled with the layers);
 * ``pipelines/convergence.py --quick`` on one case and two sequences (a few seconds): the tables'
   columns, one row per level and quantity, a second run read from the cache, no table
-  overwritten without ``--overwrite``.
+  overwritten without ``--overwrite``;
+* the prediction of a level the study did not run (``--check``) and the step a target accuracy
+  needs (``--advise``) recover the model f = f∞ + C hᵖ they assume, and ``--check`` runs the
+  level between two of a sequence.
 """
 
 from __future__ import annotations
@@ -28,12 +31,19 @@ from sacflow.studies.convergence import (
     shipped_discretisation,
     source_fingerprint,
 )
-from sacflow.studies.convergence_table import LEVEL_COLUMNS, SUMMARY_COLUMNS
+from sacflow.studies.convergence_table import (
+    CHECK_COLUMNS,
+    LEVEL_COLUMNS,
+    SUMMARY_COLUMNS,
+    check_rows,
+)
 from sacflow.studies.richardson import (
     GCI_SAFETY_FACTOR,
     extrapolate,
     observed_order,
     relative_errors,
+    step_for_error,
+    value_at_step,
 )
 
 PIPELINE = Path(__file__).parent.parent / "pipelines" / "convergence.py"
@@ -101,6 +111,30 @@ def test_extrapolation_needs_three_levels_and_a_ratio_above_one():
         extrapolate([1.0, 2.0, 2.5], 1.0)
 
 
+@pytest.mark.parametrize(("order", "coefficient"), [(2.0, 0.3), (1.3, -4.0), (2.6, 1e-3)])
+def test_the_model_through_the_finest_level_predicts_any_step(order, coefficient):
+    """On f = f∞ + C hᵖ the fitted model gives f at any step, and the step whose error is the
+    target is the one the closed form h = (ε |f∞| / |C|)^(1/p) gives."""
+    limit, ratio = 81.5, 2.0
+    values = synthetic(limit, coefficient, order, ratio)
+    fit = extrapolate(values, ratio, formal_order=2.0)
+    finest = ratio ** -2.0
+    for step in (1.0, 1 / 3, 0.1):
+        assert value_at_step(values[-1], fit.limit, fit.order, finest, step) == pytest.approx(
+            limit + coefficient * step**order, rel=1e-12)
+    target = 1e-4
+    exact = (target * limit / abs(coefficient)) ** (1.0 / order)
+    assert step_for_error(values[-1], fit.limit, fit.order, finest, target) == pytest.approx(
+        exact, rel=1e-9)
+
+
+def test_no_prediction_without_an_order_or_a_limit():
+    assert math.isnan(value_at_step(1.0, math.nan, 2.0, 0.25, 0.3))
+    assert math.isnan(value_at_step(1.0, 1.0, math.nan, 0.25, 0.3))
+    assert math.isnan(step_for_error(1.0, 0.0, 2.0, 0.25, 0.005))  # no relative error of 0
+    assert math.isinf(step_for_error(2.0, 2.0, 2.0, 0.25, 0.005))  # the finest is the limit
+
+
 BASE = Discretisation(64, 24, 1.5e-5, (10, 5))
 
 
@@ -122,6 +156,40 @@ def test_sequences_build_their_levels():
     assert "grid.depth=1.5e-05" in BASE.overrides()
     with pytest.raises(ConvergenceError, match="fractional|divisible"):
         SEQUENCES["depth"].levels(Discretisation(64, 25, 1e-5, (10, 5)))
+
+
+def test_a_step_between_the_levels_scales_every_refined_number():
+    together = SEQUENCES["together"]
+    assert together.at_step(BASE, 1 / 3) == Discretisation(96, 36, 1.5e-5, (30, 15))
+    for k in range(3):  # the steps of the levels give the levels
+        assert together.at_step(BASE, 2.0**-k) == together.level(BASE, k)
+    assert SEQUENCES["depth"].at_step(BASE, 1 / 1.5).nz == 36
+    with pytest.raises(ConvergenceError, match="step 0.3 would have"):
+        together.at_step(BASE, 0.3)  # 32 / 0.3 cells
+    with pytest.raises(ConvergenceError, match="> 0"):
+        together.at_step(BASE, 0.0)
+
+
+def test_a_checked_run_is_compared_with_the_prediction_at_its_step():
+    """A run that lands on the model has no discrepancy; one off it by 0.1 % of the limit
+    shows 0.1 %; sequences without an order are left out."""
+    limit, coefficient, order = 80.0, -3.0, 2.0
+    values = synthetic(limit, coefficient, order, 2.0)
+    fit = extrapolate(values, 2.0, 2.0)
+    summary = {("c", "together", "print_depth"): {
+        "behaviour": "monotone", "limit": fit.limit, "order": fit.order, "ratio": 2.0,
+        "levels": 3.0, "finest_value": values[-1], "relative_uncertainty": 1e-3},
+        ("c", "together", "peak_pressure"): {"behaviour": "oscillating", "limit": math.nan}}
+    on_model = limit + coefficient / 9.0
+    record = {"converged": True,
+              "quantities": {"print_depth": on_model + 0.08, "peak_pressure": 5e9}}
+    level = SEQUENCES["together"].at_step(BASE, 1 / 3)
+    (row,) = check_rows("c", "together", 1 / 3, level, record, summary)
+    assert tuple(row) == CHECK_COLUMNS
+    assert row["predicted"] == pytest.approx(on_model, rel=1e-12)
+    assert row["discrepancy"] == pytest.approx(0.001, rel=1e-9)
+    assert row["predicted_error"] == pytest.approx(coefficient / 9.0 / limit, rel=1e-9)
+    assert (row["nx"], row["nz"], row["increments"]) == (96, 36, 45)
 
 
 def test_shipped_discretisation_makes_the_automatic_depth_explicit():
@@ -200,3 +268,33 @@ def test_quick_pipeline_end_to_end(tmp_path, capsys):
     assert pipeline.main([*argv, "--plan"]) == 0
     plan = capsys.readouterr().out
     assert plan.count("cached") == 7 and "to run" not in plan  # shipped + 2 x 3 levels
+
+
+def test_quick_check_and_advice(tmp_path, capsys):
+    """--check runs the level at step 1/3 of a quick study's sequence (between its levels 1/2
+    and 1/4) and writes its comparison; --advise runs nothing and names a discretisation."""
+    pipeline = load_pipeline()
+    summary, cache = tmp_path / "summary.csv", tmp_path / "c"
+    common = ["--quick", "--cases", "nanoindentation-190mN", "--sequences", "layers",
+              "--cache", str(cache), "--summary", str(summary)]
+    assert pipeline.main([*common, "--table", str(tmp_path / "levels.csv")]) == 0
+    runs = len(list(cache.glob("*.json")))
+    checked = tmp_path / "check.csv"
+    assert pipeline.main([*common, "--check", "1/3", "--check-table", str(checked)]) == 0
+    rows = read(checked)
+    assert rows and tuple(rows[0]) == CHECK_COLUMNS
+    assert {(r["nx"], r["nz"]) for r in rows} == {("32", "12")}  # 4 layers / (1/3)
+    assert len(list(cache.glob("*.json"))) == runs + 1
+    monotone = {r["quantity"] for r in read(summary) if r["behaviour"] == "monotone"}
+    assert {r["quantity"] for r in rows} == monotone
+    capsys.readouterr()
+    assert pipeline.main([*common, "--check", "1/3", "--check-table", str(checked)]) == 2
+    assert "--overwrite" in capsys.readouterr().err  # the check table is kept
+    assert pipeline.main([*common, "--advise", "--all"]) == 0
+    advice = capsys.readouterr().out
+    assert "within 0.5 % of the limit" in advice
+    assert "residual_s33_layer1_axis" in advice and "nearly) zero" in advice
+    assert len(list(cache.glob("*.json"))) == runs + 1  # --advise ran nothing
+    with pytest.raises(SystemExit):
+        pipeline.main([*common, "--check", "0"])
+    assert "(0, 1]" in capsys.readouterr().err

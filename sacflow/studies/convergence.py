@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import hashlib
 import math
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -183,20 +183,37 @@ class Refinement:
 
     def level(self, base: Discretisation, k: int) -> Discretisation:
         """Level ``k`` (0 the coarsest) of this sequence around ``base``."""
+        return self._scaled(base, lambda start: self.ratio ** (start + k),
+                            f"level {k}", f"choose a base divisible by the ratio {self.ratio:g}")
+
+    def at_step(self, base: Discretisation, step: float) -> Discretisation:
+        """Return the level at step ``step`` (h relative to the coarsest level: :meth:`step_size`).
+
+        ``step`` = r⁻ᵏ gives :meth:`level` ``k``; any other (e.g. 1/3 between the levels 1/2
+        and 1/4 of a ratio 2) is a level the sequence does not run, to check the extrapolation
+        against (``pipelines/convergence.py --check``).
+        """
+        if not step > 0.0:
+            raise ConvergenceError(f"sequence {self.name!r}: the step must be > 0, got {step}")
+        return self._scaled(base, lambda start: self.ratio ** start / step, f"step {step:g}",
+                            "choose a step that divides the coarsest level's numbers")
+
+    def _scaled(self, base: Discretisation, factor: Callable[[int], float], label: str,
+                advice: str) -> Discretisation:
+        """Return ``base`` with each refined number multiplied by ``factor(its start exponent)``."""
         def scaled(name: str, value: int) -> int:
             if name not in self.start:
                 return value
-            exact = value * self.ratio ** (self.start[name] + k)
+            exact = value * factor(self.start[name])
             if abs(exact - round(exact)) > 1e-9 * exact or round(exact) < 1:
                 raise ConvergenceError(
-                    f"sequence {self.name!r}: level {k} would have {exact:g} {name} (from "
-                    f"{value}): choose a base divisible by the ratio {self.ratio:g}"
+                    f"sequence {self.name!r}: {label} would have {exact:g} {name} (from "
+                    f"{value}): {advice}"
                 )
             return int(round(exact))
 
         nz = scaled("depth", scaled("nz", base.nz))
-        depth = base.depth * (self.ratio ** (self.start["depth"] + k)
-                              if "depth" in self.start else 1.0)
+        depth = base.depth * (factor(self.start["depth"]) if "depth" in self.start else 1.0)
         return replace(base, nx=scaled("nx", base.nx), nz=nz, depth=depth,
                        increments=tuple(scaled("increments", n) for n in base.increments))
 

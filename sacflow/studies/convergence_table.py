@@ -29,15 +29,24 @@ from matplotlib.figure import Figure
 
 from sacflow.errors import SacflowError
 from sacflow.studies.convergence import Discretisation, Refinement, unit_of
-from sacflow.studies.richardson import Extrapolation, extrapolate, relative_errors
+from sacflow.studies.richardson import (
+    MONOTONE,
+    Extrapolation,
+    extrapolate,
+    relative_errors,
+    value_at_step,
+)
 
 __all__ = [
+    "CHECK_COLUMNS",
     "LEVEL_COLUMNS",
     "SUMMARY_COLUMNS",
     "SequenceResult",
+    "check_rows",
     "level_rows",
     "plot_errors",
     "plot_profiles",
+    "read_summary",
     "summary_rows",
     "write_csv",
 ]
@@ -50,6 +59,14 @@ SUMMARY_COLUMNS: tuple[str, ...] = (
     "case", "sequence", "quantity", "unit", "ratio", "levels", "converged", "behaviour", "order",
     "previous_order", "formal_order", "limit", "uncertainty", "relative_uncertainty",
     "formal_limit", "finest_value", "shipped_value", "shipped_error",
+)
+#: One row per quantity of a level run to check a study's extrapolation (``--check``): the
+#: run's value, the value the summary's model f∞ + C hᵖ predicts at its step, and both errors
+#: against the summary's limit.
+CHECK_COLUMNS: tuple[str, ...] = (
+    "case", "sequence", "step", "nx", "nz", "depth", "increments", "converged", "quantity",
+    "unit", "value", "predicted", "limit", "relative_uncertainty", "order", "relative_error",
+    "predicted_error", "discrepancy",
 )
 UM, MPA = 1e6, 1e-6
 #: Behaviour of a sequence with a level that did not run (or a quantity it does not have).
@@ -140,6 +157,65 @@ def summary_rows(result: SequenceResult) -> list[dict[str, Any]]:
         row["relative_uncertainty"] = (row["uncertainty"] / abs(limit)
                                        if math.isfinite(limit) and limit != 0.0 else math.nan)
         rows.append(row)
+    return rows
+
+
+def read_summary(path: Path) -> dict[tuple[str, str, str], dict[str, Any]]:
+    """Read a summary table (:data:`SUMMARY_COLUMNS`), keyed by (case, sequence, quantity).
+
+    Numbers come back as floats (NaN where empty), the rest as text.
+    """
+    if not path.is_file():
+        raise SacflowError(f"no summary table {path}: give the --summary of a finished study")
+    rows: dict[tuple[str, str, str], dict[str, Any]] = {}
+    with path.open(newline="", encoding="utf-8") as f:
+        for row in csv.DictReader(f):
+            parsed: dict[str, Any] = {k: _parsed(k, v) for k, v in row.items()}
+            rows[(row["case"], row["sequence"], row["quantity"])] = parsed
+    return rows
+
+
+def _parsed(column: str, text: str | None) -> Any:
+    """Parse a summary cell: text for the names, the behaviour and the flag, float otherwise."""
+    if column in ("case", "sequence", "quantity", "unit", "behaviour", "converged"):
+        return text or ""
+    return float(text) if text else math.nan
+
+
+def finest_step(row: Mapping[str, Any]) -> float:
+    """Return the step of a summary row's finest level (the coarsest's is 1): r^−(levels − 1)."""
+    return float(row["ratio"]) ** -(float(row["levels"]) - 1.0)
+
+
+def check_rows(case: str, sequence: str, step: float, level: Discretisation,
+               record: Mapping[str, Any],
+               summary: Mapping[tuple[str, str, str], Mapping[str, Any]]) -> list[dict[str, Any]]:
+    """Rows of :data:`CHECK_COLUMNS`: a run at ``step`` against the summary's prediction there.
+
+    ``record`` is the run (its ``quantities`` and ``converged``), ``summary`` a study's summary
+    (:func:`read_summary`). Only quantities whose sequence is monotone (an order and a limit)
+    are compared. ``discrepancy`` = (value − predicted) / |f∞|: how far the run is from the
+    model f∞ + C hᵖ through the study's finest level (:func:`value_at_step`), in the units of the
+    relative errors.
+    """
+    rows: list[dict[str, Any]] = []
+    for name, value in record["quantities"].items():
+        fit = summary.get((case, sequence, name))
+        if fit is None or fit["behaviour"] != MONOTONE:
+            continue
+        limit, order = float(fit["limit"]), float(fit["order"])
+        predicted = value_at_step(float(fit["finest_value"]), limit, order, finest_step(fit),
+                                  step)
+        error, predicted_error = relative_errors([value, predicted], limit)
+        rows.append({
+            "case": case, "sequence": sequence, "step": step, "nx": level.nx, "nz": level.nz,
+            "depth": level.depth, "increments": level.total_increments,
+            "converged": record.get("converged", ""), "quantity": name, "unit": unit_of(name),
+            "value": float(value), "predicted": predicted, "limit": limit,
+            "relative_uncertainty": fit["relative_uncertainty"], "order": order,
+            "relative_error": error, "predicted_error": predicted_error,
+            "discrepancy": error - predicted_error,
+        })
     return rows
 
 

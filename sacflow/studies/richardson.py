@@ -30,11 +30,14 @@ from dataclasses import dataclass
 
 __all__ = [
     "GCI_SAFETY_FACTOR",
+    "MONOTONE",
     "Extrapolation",
     "extrapolate",
     "observed_order",
     "relative_errors",
     "richardson_limit",
+    "step_for_error",
+    "value_at_step",
 ]
 
 #: Roache's safety factor of the grid convergence index for three levels and an observed order.
@@ -148,3 +151,35 @@ def relative_errors(values: Sequence[float], limit: float) -> list[float]:
     if not math.isfinite(limit) or limit == 0.0:
         return [math.nan for _ in values]
     return [(float(v) - limit) / abs(limit) for v in values]
+
+
+def value_at_step(fine: float, limit: float, order: float, fine_step: float,
+                  step: float) -> float:
+    """f(h) = f∞ + (f₃ − f∞) (h / h₃)ᵖ: the model f∞ + C hᵖ through the finest level, at ``step``.
+
+    What the Richardson analysis predicts for a level the sequence did not run (the check of a
+    study: run that level and compare). NaN without a finite limit and a positive order.
+    """
+    if not (math.isfinite(limit) and order > 0.0 and fine_step > 0.0 and step > 0.0):
+        return math.nan
+    if math.isinf(order):  # converged at the medium level: every finer level is the limit
+        return limit if step < fine_step else math.nan
+    return limit + (fine - limit) * (step / fine_step) ** order
+
+
+def step_for_error(fine: float, limit: float, order: float, fine_step: float,
+                   target: float) -> float:
+    """Return the step h at which :func:`value_at_step` is ``target`` × |f∞| away from the limit.
+
+    h = h₃ (ε / |e₃|)^(1/p) with e₃ = (f₃ − f∞) / |f∞| the finest level's relative error and
+    ε = ``target``: the discretisation a study predicts for a required accuracy (above h₃ when
+    the finest level is already within it). Infinite when the finest level equals the limit;
+    NaN without a finite nonzero limit and a positive order.
+    """
+    if not (math.isfinite(limit) and limit != 0.0 and order > 0.0 and fine_step > 0.0
+            and target > 0.0):
+        return math.nan
+    error = abs(fine - limit) / abs(limit)
+    if error == 0.0 or math.isinf(order):
+        return math.inf
+    return fine_step * (target / error) ** (1.0 / order)
