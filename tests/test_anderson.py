@@ -153,3 +153,30 @@ def test_a_shaped_support_grows_by_a_margin_and_mixes_as_dense_vectors():
     assert kept[ever].all() and not kept[~grown].any()
     assert layouts["shaped"] < layouts["flat"] == 8
 
+
+
+def test_fused_column_dots_are_the_dot_products_whatever_the_threads(monkeypatch):
+    """The Gram row and the right-hand side come from one pass over the vectors, in partial
+    sums over fixed blocks: the products of numpy to rounding, and the same bits on one thread
+    or shared out between two or three (as the iterates must be)."""
+    from sacflow.machine import threads as thread_budget
+    from sacflow.solver import vector_passes
+    from sacflow.solver.vector_passes import DOT_BLOCK, column_dots
+
+    rng = np.random.default_rng(11)
+    size = 5 * DOT_BLOCK + 123  # a last block shorter than the others
+    columns = [rng.standard_normal(size) for _ in range(4)]
+    a, b = rng.standard_normal(size), rng.standard_normal(size)
+    monkeypatch.setattr(thread_budget, "SPLIT_ITEMS", 1)  # share even this small pass out
+    results = {}
+    for count in (1, 2, 3):
+        monkeypatch.setattr(vector_passes, "threads", lambda count=count: count)
+        results[count] = column_dots(columns, a, b)
+    with_a, with_b = results[1]
+    assert_allclose(with_a, [c @ a for c in columns], rtol=1e-12)
+    assert_allclose(with_b, [c @ b for c in columns], rtol=1e-12)
+    for count in (2, 3):
+        np.testing.assert_array_equal(results[count][0], with_a)
+        np.testing.assert_array_equal(results[count][1], with_b)
+    empty_a, empty_b = column_dots([], a, b)
+    assert empty_a.shape == empty_b.shape == (0,)

@@ -15,6 +15,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from sacflow.solver.vector_passes import (
+    column_dots,
     gather_differences,
     mix_start,
     mix_subtract,
@@ -58,7 +59,8 @@ class AndersonMixer:
     times in 24 sweeps instead of 12, for a support 7 % larger.
     The passes over the vectors (gathers, differences, the mixing, the scatter back) are
     compiled loops shared out between threads (:mod:`sacflow.solver.vector_passes`) with
-    numpy's operations in numpy's order: the iterates are those of the numpy expressions.
+    numpy's operations in numpy's order; the dot products are sums over fixed blocks, the same
+    whatever the threads. The iterates do not depend on the number of threads.
     """
 
     def __init__(self, depth: int = 5, mixing: float = 1.0,
@@ -131,14 +133,13 @@ class AndersonMixer:
             self._last_x, self._last_f = widened(self._last_x), widened(self._last_f)
         self._support = support
 
-    def _append(self, dx: np.ndarray, df: np.ndarray) -> None:
-        """Add a difference pair; keep the Gram matrix of the ΔF columns in step (O(m n))."""
+    def _append(self, dx: np.ndarray, df: np.ndarray, row: np.ndarray) -> None:
+        """Add a difference pair and its Gram row (``ΔF_k · df`` of the columns kept with it)."""
         gram = self._gram
         if len(self._df) == self._df.maxlen:
             gram = gram[1:, 1:]
         self._dx.append(dx)
         self._df.append(df)
-        row = np.array([float(col @ df) for col in self._df])
         m = len(row)
         new = np.empty((m, m))
         new[: m - 1, : m - 1] = gram
@@ -156,6 +157,8 @@ class AndersonMixer:
         with the cached Gram matrix ``ΔF^T ΔF`` (a pseudo-inverse drops directions below 1e-13 of
         the largest): each step costs O(m n) for ``m`` stored differences of length ``n``
         (the support, class notes) instead of the O(m² n) of a QR factorisation of ``ΔF``.
+        The new Gram row and the right-hand side ``ΔF^T f`` come from one pass over the stored
+        columns and the two vectors (:func:`~sacflow.solver.vector_passes.column_dots`).
         """
         if self.depth == 0:
             plain: np.ndarray = x + self.mixing * (gx - x)
@@ -170,11 +173,15 @@ class AndersonMixer:
             spare = (self._dx[0], self._df[0])
         xs, f, dx, df = gather_differences(x, gx, support, last, spare)
         if dx is not None and df is not None:
-            self._append(dx, df)
+            # the columns the new pair joins (the oldest dropped when the history is full)
+            kept = list(self._df)[1:] if len(self._df) == self._df.maxlen else list(self._df)
+            row, rhs = column_dots([*kept, df], df, f)  # its Gram row, and ΔF^T f
+            self._append(dx, df, row)
+        elif self._df:
+            rhs = column_dots(list(self._df), f, f)[0]
         self._last_x, self._last_f = xs, f
         mixed = mix_start(xs, f, self.mixing)
         if self._df:
-            rhs = np.array([float(col @ f) for col in self._df])
             gamma = np.linalg.pinv(self._gram, rcond=1e-13, hermitian=True) @ rhs
             for g, dx_k, df_k in zip(gamma, self._dx, self._df, strict=True):
                 mix_subtract(mixed, dx_k, df_k, float(g), self.mixing)

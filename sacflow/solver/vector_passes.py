@@ -8,7 +8,9 @@ mixing of the stored differences. As numpy expressions each is a pass of its own
 temporary, on one thread, while the FFTs around them use every core. Here each is one compiled
 loop over a range of the vector (:func:`sacflow.machine.threads.over_ranges` runs the ranges in
 threads), with the same floating-point operations in the same order as the numpy expressions
-they replace, so the iterates do not change, whatever the number of threads.
+they replace, so the iterates do not change, whatever the number of threads. The history's
+dot products (:func:`column_dots`) are the exception to numpy's order, not to the rule: sums
+over blocks fixed in advance, the same on any number of threads.
 
 Every compiled loop takes ``first, last`` (the range) as its last two arguments, takes views of
 that range of its arrays and runs from 0: an index numba cannot prove non-negative (such as one
@@ -18,14 +20,26 @@ LLVM from vectorising the loop (several times slower than numpy's own loop).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numba
 import numpy as np
 
 from sacflow.kernels.fft import default_threads
 from sacflow.machine.threads import over_ranges
 
-__all__ = ["gather_differences", "largest_magnitudes", "mix_start", "mix_subtract",
-           "new_nonzeros", "scatter_support", "summed", "threads", "trial_stress"]
+__all__ = ["DOT_BLOCK", "DOT_SLOTS", "column_dots", "gather_differences", "largest_magnitudes",
+           "mix_start", "mix_subtract", "new_nonzeros", "scatter_support", "summed", "threads",
+           "trial_stress"]
+
+
+#: Entries of each partial sum of :func:`column_dots` (128 kB of a vector, so that the two
+#: vectors' blocks stay in the core's cache while every column passes over them). Fixed, not a
+#: share of a thread: the partial sums, and so the dot products, do not depend on the threads.
+DOT_BLOCK = 1 << 14
+#: Columns of :func:`column_dots` per pass over the two vectors (a fixed number of arguments:
+#: one compiled loop whatever the history's depth).
+DOT_SLOTS = 4
 
 
 def threads() -> int:
@@ -212,3 +226,48 @@ def scatter_support(values: np.ndarray, support: np.ndarray, size: int,
         raise ValueError(f"out must be a contiguous float vector of {size} entries")
     over_ranges(_scatter_support, size, threads(), values, support, out)
     return out
+
+
+@numba.njit(nogil=True, cache=True, boundscheck=False, fastmath={"reassoc", "contract"})
+def _column_dots(c0: np.ndarray, c1: np.ndarray, c2: np.ndarray, c3: np.ndarray, used: int,
+                 a: np.ndarray, b: np.ndarray, partial: np.ndarray, first: int,
+                 last: int) -> None:  # pragma: no cover - compiled
+    size = a.size
+    columns = (c0, c1, c2, c3)
+    for block in range(first, last):
+        start = block * DOT_BLOCK
+        stop = min(start + DOT_BLOCK, size)
+        a_block, b_block = a[start:stop], b[start:stop]
+        for k in range(used):
+            column = columns[k][start:stop]
+            with_a = with_b = 0.0
+            for i in range(column.size):
+                with_a += column[i] * a_block[i]
+                with_b += column[i] * b_block[i]
+            partial[block, k, 0] = with_a
+            partial[block, k, 1] = with_b
+
+
+def column_dots(columns: Sequence[np.ndarray], a: np.ndarray,
+                b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(c_k · a, c_k · b)`` for every column ``c_k``, in one pass over the vectors.
+
+    The Anderson step needs the new ΔF difference's products with every stored one (a row of
+    the Gram matrix) and the residual's (the right-hand side): as separate dot products that
+    reads each stored column twice and the two vectors once per column; here the columns go
+    :data:`DOT_SLOTS` at a time, each block of the two vectors read once for them all. Each
+    product is a sum of partial sums over fixed blocks of :data:`DOT_BLOCK` entries, added in
+    block order, so it is the same whatever the number of threads (it differs from numpy's dot
+    product by rounding: the order of the additions is another).
+    """
+    count = len(columns)
+    blocks = -(-a.size // DOT_BLOCK)
+    partial = np.zeros((blocks, count, 2))
+    for first in range(0, count, DOT_SLOTS):
+        group = list(columns[first:first + DOT_SLOTS])
+        used = len(group)
+        group += [a] * (DOT_SLOTS - used)  # unused slots, never read
+        over_ranges(_column_dots, blocks, threads(), *group, used, a, b,
+                    partial[:, first:first + used], weight=DOT_BLOCK * (used + 2) // 2)
+    sums = partial.sum(axis=0)
+    return sums[:, 0].copy(), sums[:, 1].copy()
