@@ -295,6 +295,63 @@ def convergence_cell_mean_together(out: Path) -> dict[str, float]:
     return numbers
 
 
+#: docs/convergence.md's advice and check: quantity -> key stem (of the together sequences).
+CHECKED = {"print_depth": "print_depth", "peak_pressure": "peak_pressure",
+           "max_plastic_strain": "max_eqps", "max_plastic_strain_refined": "max_eqps_refined",
+           "approach_at_peak_load": "approach", "residual_s11_axis_min": "s11_min"}
+#: The relative error the advice is for (pipelines/convergence.py's TARGET_ERROR).
+ADVICE_TARGET = 0.005
+
+
+def convergence_check(out: Path) -> dict[str, float]:
+    """The advice of ``pipelines/convergence.py --advise`` and the check of ``--check 1/3``.
+
+    From ``data/convergence-together-summary.csv``: the step h at which each quantity of
+    :data:`CHECKED` is within :data:`ADVICE_TARGET` of its limit by the summary's model
+    (``advice_{case}_{stem}_step``). From ``data/convergence-check.csv``: the checked run's error
+    against the limit, the model's prediction of it, their difference and the limit's relative
+    uncertainty (``check_{case}_{stem}_error``, ``_predicted``, ``_discrepancy``,
+    ``_uncertainty``), the checked level's cells and layers (``check_nx``, ``check_nz``), and the
+    largest |discrepancy| of the print depths and peak pressures and of every quantity.
+    """
+    import csv
+
+    from sacflow.studies.convergence_table import finest_step
+    from sacflow.studies.richardson import step_for_error
+
+    def rows(name: str) -> list[dict[str, str]]:
+        with open(ROOT / "data" / name, newline="", encoding="utf-8") as f:
+            return list(csv.DictReader(f))
+
+    numbers: dict[str, float] = {}
+    for r in rows("convergence-together-summary.csv"):
+        case, stem = CELL_MEAN_CASES.get(r["case"]), CHECKED.get(r["quantity"])
+        if case is None or stem is None or not r["order"]:
+            continue
+        fit = {"ratio": float(r["ratio"]), "levels": float(r["levels"])}
+        numbers[f"advice_{case}_{stem}_step"] = step_for_error(
+            float(r["finest_value"]), float(r["limit"]), float(r["order"]), finest_step(fit),
+            ADVICE_TARGET)
+    largest = {"all": 0.0, "depth_pressure": 0.0}
+    for r in rows("convergence-check.csv"):
+        case, stem = CELL_MEAN_CASES.get(r["case"]), CHECKED.get(r["quantity"])
+        if case is None or stem is None:
+            continue
+        key = f"check_{case}_{stem}"
+        for column, suffix in (("relative_error", "error"), ("predicted_error", "predicted"),
+                               ("discrepancy", "discrepancy"),
+                               ("relative_uncertainty", "uncertainty")):
+            numbers[f"{key}_{suffix}"] = float(r[column])
+        numbers["check_nx"], numbers["check_nz"] = float(r["nx"]), float(r["nz"])
+        size = abs(float(r["discrepancy"]))
+        largest["all"] = max(largest["all"], size)
+        if stem in ("print_depth", "peak_pressure"):
+            largest["depth_pressure"] = max(largest["depth_pressure"], size)
+    numbers["check_largest_discrepancy"] = largest["all"]
+    numbers["check_largest_discrepancy_depth_pressure"] = largest["depth_pressure"]
+    return numbers
+
+
 #: The groups of this module: name -> (speed, function of the output folder).
 GROUPS = {
     "own_hardening_checks": ("fast", own_hardening_checks),
@@ -303,6 +360,7 @@ GROUPS = {
     "convergence_together": ("fast", convergence_together),
     "convergence_cell_mean": ("fast", convergence_cell_mean),
     "convergence_cell_mean_together": ("fast", convergence_cell_mean_together),
+    "convergence_check": ("fast", convergence_check),
 }
 
 
