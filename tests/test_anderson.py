@@ -180,3 +180,7 @@ def test_fused_column_dots_are_the_dot_products_whatever_the_threads(monkeypatch
         np.testing.assert_array_equal(results[count][1], with_b)
     empty_a, empty_b = column_dots([], a, b)
     assert empty_a.shape == empty_b.shape == (0,)
+    monkeypatch.undo()  # vectors that stay in the cache: numpy's own products, to the bit
+    in_cache_a, in_cache_b = column_dots(columns, a, b)
+    assert list(in_cache_a) == [float(c @ a) for c in columns]
+    assert list(in_cache_b) == [float(c @ b) for c in columns]

@@ -26,6 +26,7 @@ import numba
 import numpy as np
 
 from sacflow.kernels.fft import default_threads
+from sacflow.machine import threads as thread_budget
 from sacflow.machine.threads import over_ranges
 
 __all__ = ["DOT_BLOCK", "DOT_SLOTS", "column_dots", "gather_differences", "largest_magnitudes",
@@ -258,9 +259,15 @@ def column_dots(columns: Sequence[np.ndarray], a: np.ndarray,
     :data:`DOT_SLOTS` at a time, each block of the two vectors read once for them all. Each
     product is a sum of partial sums over fixed blocks of :data:`DOT_BLOCK` entries, added in
     block order, so it is the same whatever the number of threads (it differs from numpy's dot
-    product by rounding: the order of the additions is another).
+    product by rounding: the order of the additions is another). Vectors below
+    :data:`~sacflow.machine.threads.SPLIT_ITEMS` entries, which stay in the cache, take numpy's
+    dot products instead: there the compiled sums are slower than BLAS, and the memory traffic
+    they save is not what limits the step (``docs/performance.md``).
     """
     count = len(columns)
+    if a.size < thread_budget.SPLIT_ITEMS:  # in cache: numpy's (BLAS) products are faster
+        return (np.array([float(column @ a) for column in columns]),
+                np.array([float(column @ b) for column in columns]))
     blocks = -(-a.size // DOT_BLOCK)
     partial = np.zeros((blocks, count, 2))
     for first in range(0, count, DOT_SLOTS):
