@@ -45,7 +45,11 @@ def main(argv: list[str] | None = None) -> int:
     counts = []
     for _ in range(args.processes):  # one after the other: the spread is not from the load
         done = subprocess.run([sys.executable, "-c", program], env=env, capture_output=True,
-                              text=True, check=True)
+                              text=True, check=False)
+        if done.returncode != 0 or not done.stdout.split():
+            last = (done.stderr.strip().splitlines() or ["no output"])[-1]
+            print(f"error: the step's process failed: {last}", file=sys.stderr)
+            return 2
         counts.append(int(done.stdout.split()[-1]))
     print(json.dumps({"ratio": args.ratio, "threads": args.threads, "counts": counts,
                       "min": min(counts), "median": statistics.median(counts),

@@ -298,3 +298,8 @@ def test_quick_check_and_advice(tmp_path, capsys):
     with pytest.raises(SystemExit):
         pipeline.main([*common, "--check", "0"])
     assert "(0, 1]" in capsys.readouterr().err
+    # the wrong table, or none: one line naming it, no traceback
+    assert pipeline.main([*common, "--advise", "--against", str(tmp_path / "levels.csv")]) == 2
+    assert "not a summary table" in capsys.readouterr().err
+    assert pipeline.main([*common, "--advise", "--against", str(tmp_path / "none.csv")]) == 2
+    assert "no summary table" in capsys.readouterr().err

@@ -172,13 +172,12 @@ class AndersonMixer:
         if last is not None and self._df and len(self._df) == self._df.maxlen:
             spare = (self._dx[0], self._df[0])
         xs, f, dx, df = gather_differences(x, gx, support, last, spare)
+        rhs = np.zeros(0)  # ΔF^T f; a history exists only after a first pair (dx from a last)
         if dx is not None and df is not None:
             # the columns the new pair joins (the oldest dropped when the history is full)
             kept = list(self._df)[1:] if len(self._df) == self._df.maxlen else list(self._df)
             row, rhs = column_dots([*kept, df], df, f)  # its Gram row, and ΔF^T f
             self._append(dx, df, row)
-        elif self._df:
-            rhs = column_dots(list(self._df), f, f)[0]
         self._last_x, self._last_f = xs, f
         mixed = mix_start(xs, f, self.mixing)
         if self._df:

@@ -275,6 +275,6 @@ def column_dots(columns: Sequence[np.ndarray], a: np.ndarray,
         used = len(group)
         group += [a] * (DOT_SLOTS - used)  # unused slots, never read
         over_ranges(_column_dots, blocks, threads(), *group, used, a, b,
-                    partial[:, first:first + used], weight=DOT_BLOCK * (used + 2) // 2)
+                    partial[:, first:first + used], weight=DOT_BLOCK * (used + 2))
     sums = partial.sum(axis=0)
     return sums[:, 0].copy(), sums[:, 1].copy()

@@ -169,7 +169,13 @@ def read_summary(path: Path) -> dict[tuple[str, str, str], dict[str, Any]]:
         raise SacflowError(f"no summary table {path}: give the --summary of a finished study")
     rows: dict[tuple[str, str, str], dict[str, Any]] = {}
     with path.open(newline="", encoding="utf-8") as f:
-        for row in csv.DictReader(f):
+        reader = csv.DictReader(f)
+        missing = [c for c in SUMMARY_COLUMNS if c not in (reader.fieldnames or ())]
+        if missing:
+            raise SacflowError(f"{path} is not a summary table of pipelines/convergence.py (no "
+                               f"column {', '.join(missing[:3])}): give its --summary, e.g. "
+                               f"data/convergence-together-summary.csv")
+        for row in reader:
             parsed: dict[str, Any] = {k: _parsed(k, v) for k, v in row.items()}
             rows[(row["case"], row["sequence"], row["quantity"])] = parsed
     return rows
