@@ -190,11 +190,15 @@ def inclusion_hertz_runs(out: Path) -> dict[str, float]:
 
 #: docs/inclusions.md's table: modulus ratios E*/E of Eshelby's sphere at 3 cells per radius.
 ITERATION_RATIOS = (1e-3, 0.1, 0.5, 2.0, 5.0, 10.0, 100.0, 1000.0)
+#: The near cavity among them, whose count depends on the FFT plans a process measures.
+NEAR_CAVITY = 1e-3
 
 
 def eshelby_iterations(out: Path) -> dict[str, float]:
     """Eshelby's sphere of ``tests/test_inhomogeneity_solver.py``: its cells at 2, 3 and 5 per
-    radius, the GMRES iterations of its step against E*/E (3 per radius, 136 cells)."""
+    radius, the GMRES iterations of its step against E*/E (3 per radius, 136 cells); the near
+    cavity's with estimated FFT plans (``pipelines/eshelby_spread.py``), the same in every
+    process."""
     sys.path.insert(0, str(ROOT / "tests"))
     import test_inhomogeneity_solver as eshelby
 
@@ -203,8 +207,14 @@ def eshelby_iterations(out: Path) -> dict[str, float]:
         sim, states = eshelby.run(eshelby.eshelby_inputs(2.0, cells))
         numbers[f"eshelby_cells_{cells}"] = float((states[-1].volume["phase"] == 1).sum())
     for ratio in ITERATION_RATIOS:
-        _, states = eshelby.run(eshelby.eshelby_inputs(ratio, 3))
-        numbers[f"eshelby_iterations_{ratio:g}"] = float(states[-1].inclusion_iterations)
+        if ratio == NEAR_CAVITY:
+            # in a fresh process with estimated FFT plans: with measured ones the near cavity's
+            # count varies from process to process (docs/inclusions.md)
+            count = _pipeline("eshelby_spread").counts(1, ratio, planner="estimate")[0]
+        else:
+            _, states = eshelby.run(eshelby.eshelby_inputs(ratio, 3))
+            count = states[-1].inclusion_iterations
+        numbers[f"eshelby_iterations_{ratio:g}"] = float(count)
     return numbers
 
 
