@@ -128,6 +128,40 @@ def test_hit_does_not_compute(cache):
         kernel_cache.cached_arrays("not-listed", {"n": 1}, compute)
 
 
+@pytest.mark.skipif(not hasattr(os, "posix_fadvise") or not os.path.isdir("/proc/self/fd"),
+                    reason="posix_fadvise and /proc are Linux's")
+def test_every_array_file_is_read_ahead_before_any_is_hashed(cache, monkeypatch):
+    """A load asks for all of an entry's files at once: the disk gets large requests."""
+    import xxhash
+
+    kernel_cache.cached_arrays("test", {"n": 1}, arrays)  # stored
+    events: list[tuple[str, ...]] = []
+    advise, hash_of = os.posix_fadvise, xxhash.xxh3_64
+
+    def recorded_advise(fd: int, offset: int, length: int, advice: int) -> None:
+        name = os.path.basename(os.readlink(f"/proc/self/fd/{fd}"))
+        events.append(("ahead", name, str(advice == os.POSIX_FADV_WILLNEED)))
+        advise(fd, offset, length, advice)
+
+    def recorded_hash(*data):
+        events.append(("hash",))
+        return hash_of(*data)
+
+    monkeypatch.setattr(os, "posix_fadvise", recorded_advise)
+    monkeypatch.setattr(xxhash, "xxh3_64", recorded_hash)
+    monkeypatch.setattr(kernel_cache, "VERIFIED_FILES", set())  # verified again, as a new process
+    loaded = kernel_cache.cached_arrays("test", {"n": 1}, arrays)
+    ahead = [e for e in events if e[0] == "ahead"]
+    assert sorted(e[1] for e in ahead) == ["a.npy", "b.npy"]
+    assert all(e[2] == "True" for e in ahead)
+    assert events.index(("hash",)) > max(events.index(e) for e in ahead)
+    np.testing.assert_array_equal(loaded["b"], arrays()["b"])
+
+
+def test_read_ahead_of_a_missing_file_does_nothing(tmp_path):
+    kernel_cache.read_ahead(tmp_path / "absent.npy")  # the load reports it, not the advice
+
+
 def _store_slowly(root: str, barrier, queue) -> None:
     os.environ["SACFLOW_CACHE_DIR"] = root
     kernel_cache.MIN_CACHED_BYTES = 0

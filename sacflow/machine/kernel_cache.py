@@ -137,6 +137,8 @@ def _load(path: Path, kind: str, parameters: Mapping[str, Any]) -> dict[str, np.
         raise ValueError("written without a checksum (by an older sacflow), it cannot be "
                          "verified")
     arrays = {}
+    for name in record["arrays"]:
+        read_ahead(path / f"{name}.npy")
     for name, spec in record["arrays"].items():
         file = path / f"{name}.npy"
         try:
@@ -150,6 +152,27 @@ def _load(path: Path, kind: str, parameters: Mapping[str, Any]) -> dict[str, np.
     with contextlib.suppress(OSError):
         os.utime(path / _RECORD)  # last use, for the eviction order
     return arrays
+
+
+def read_ahead(file: Path) -> None:
+    """Ask the kernel to start reading all of ``file`` into the page cache, and return.
+
+    The cache's files are written past the page cache, so the first process to load them reads
+    them from the disk. Hashed through the memory map, that read is a page fault at a time with
+    the kernel's small read-ahead window; asked for the whole file first (every file of the
+    entry, before any is hashed), the disk gets large requests, and the hash and the solver find
+    the pages in memory. Where ``posix_fadvise`` does not exist, or the file cannot be opened
+    here, nothing is done (the loading itself reports a missing file).
+    """
+    advise = getattr(os, "posix_fadvise", None)
+    if advise is None:
+        return
+    with contextlib.suppress(OSError):
+        fd = os.open(file, os.O_RDONLY)
+        try:
+            advise(fd, 0, 0, os.POSIX_FADV_WILLNEED)
+        finally:
+            os.close(fd)
 
 
 #: Array files this process has verified, with the identity of the file it read (device,
