@@ -22,16 +22,18 @@ import numpy as np
 if sys.argv[1] == "tuned":
     from sacflow.machine.malloc import tune_malloc
     assert tune_malloc()
-a = np.ones(2 * 2**20 // 8); del a
+first, second = (int(v) * 2**20 // 8 for v in sys.argv[2:4])
+a = np.ones(first); del a
 before = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
-b = np.ones(3 * 2**20 // 8)
+b = np.ones(second)
 print(resource.getrusage(resource.RUSAGE_SELF).ru_minflt - before)
 """
 
 
-def faults(mode: str, env: dict[str, str] | None = None) -> int:
-    run = subprocess.run([sys.executable, "-c", FAULTS, mode], capture_output=True, text=True,
-                         check=True, env=env)
+def faults(mode: str, env: dict[str, str] | None = None, sizes: tuple[int, int] = (2, 3)) -> int:
+    """Page faults of the second array (sizes in MB of the first, freed, and the second)."""
+    run = subprocess.run([sys.executable, "-c", FAULTS, mode, *map(str, sizes)],
+                         capture_output=True, text=True, check=True, env=env)
     return int(run.stdout.split()[-1])
 
 
@@ -45,6 +47,23 @@ def test_tuned_process_reuses_freed_memory_for_a_larger_array():
     from_env = faults("default", {**plain, **MALLOC_ENV})  # how campaign workers get it
     pages = 3 * 2**20 // 4096
     assert default > pages // 2, f"default glibc: {default} faults for {pages} pages"
+    assert tuned < default / 2, f"tuned: {tuned} faults, default {default}"
+    assert from_env < default / 2, f"environment: {from_env} faults, default {default}"
+
+
+@pytest.mark.skipif(not GLIBC, reason="glibc only")
+def test_tuned_process_reuses_a_freed_box_size_array():
+    """A 48 MB array (a 128 × 128 × 64 box's vector of six components) freed, then another:
+    above glibc's largest mmap threshold, so by default mapped and faulted in afresh; tuned,
+    every block comes from the heap and the second array reuses the first's pages."""
+    import os
+
+    plain = {k: v for k, v in os.environ.items() if k not in MALLOC_ENV}
+    default = faults("default", plain, (48, 48))
+    tuned = faults("tuned", plain, (48, 48))
+    from_env = faults("default", {**plain, **MALLOC_ENV}, (48, 48))
+    huge_pages = 48 * 2**20 // (2 * 2**20)  # the fewest faults of a fresh 48 MB array
+    assert default >= huge_pages, f"default glibc: {default} faults for 48 MB"
     assert tuned < default / 2, f"tuned: {tuned} faults, default {default}"
     assert from_env < default / 2, f"environment: {from_env} faults, default {default}"
 
