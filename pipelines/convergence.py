@@ -75,9 +75,10 @@ from sacflow.studies.convergence_table import (
     CHECK_COLUMNS,
     LEVEL_COLUMNS,
     SUMMARY_COLUMNS,
+    TARGET_ERROR,
     SequenceResult,
+    advised_step,
     check_rows,
-    finest_step,
     level_rows,
     plot_errors,
     plot_profiles,
@@ -85,11 +86,8 @@ from sacflow.studies.convergence_table import (
     summary_rows,
     write_csv,
 )
-from sacflow.studies.richardson import step_for_error
 
 ROOT = Path(__file__).resolve().parent.parent
-#: Relative error that ``--advise`` finds the discretisation for (issue #32: half a percent).
-TARGET_ERROR = 0.005
 #: Quantities whose limit vanishes at the traction-free surface (the top layers' residual σ33,
 #: shear and hydrostatic stress): a relative error means nothing for them.
 NEAR_ZERO_QUANTITIES = ("residual_s33_layer", "residual_shear_layer", "hydrostatic_layer")
@@ -277,8 +275,7 @@ def advise(args: argparse.Namespace) -> int:
             if case != name or seq_name not in args.sequences or not (
                     args.all or quantity in PRINTED):
                 continue
-            step = step_for_error(row["finest_value"], row["limit"], row["order"],
-                                  finest_step(row), args.target)
+            step = advised_step(row, args.target)
             if quantity.startswith(NEAR_ZERO_QUANTITIES):
                 advice = "no relative error: its limit is (nearly) zero, read its values"
             elif math.isnan(step):

@@ -17,6 +17,7 @@ times docs/inclusions.md quotes are such measurements, on a shared machine).
 from __future__ import annotations
 
 import json
+import math
 import sys
 import time
 from dataclasses import replace
@@ -299,15 +300,13 @@ def convergence_cell_mean_together(out: Path) -> dict[str, float]:
 CHECKED = {"print_depth": "print_depth", "peak_pressure": "peak_pressure",
            "max_plastic_strain": "max_eqps", "max_plastic_strain_refined": "max_eqps_refined",
            "approach_at_peak_load": "approach", "residual_s11_axis_min": "s11_min"}
-#: The relative error the advice is for (pipelines/convergence.py's TARGET_ERROR).
-ADVICE_TARGET = 0.005
 
 
 def convergence_check(out: Path) -> dict[str, float]:
     """The advice of ``pipelines/convergence.py --advise`` and the check of ``--check 1/3``.
 
     From ``data/convergence-together-summary.csv``: the step h at which each quantity of
-    :data:`CHECKED` is within :data:`ADVICE_TARGET` of its limit by the summary's model
+    :data:`CHECKED` is within the study's target error of its limit by the summary's model
     (``advice_{case}_{stem}_step``). From ``data/convergence-check.csv``: the checked run's error
     against the limit, the model's prediction of it, their difference and the limit's relative
     uncertainty (``check_{case}_{stem}_error``, ``_predicted``, ``_discrepancy``,
@@ -316,22 +315,19 @@ def convergence_check(out: Path) -> dict[str, float]:
     """
     import csv
 
-    from sacflow.studies.convergence_table import finest_step
-    from sacflow.studies.richardson import step_for_error
+    from sacflow.studies.convergence_table import advised_step, read_summary
 
     def rows(name: str) -> list[dict[str, str]]:
         with open(ROOT / "data" / name, newline="", encoding="utf-8") as f:
             return list(csv.DictReader(f))
 
     numbers: dict[str, float] = {}
-    for r in rows("convergence-together-summary.csv"):
-        case, stem = CELL_MEAN_CASES.get(r["case"]), CHECKED.get(r["quantity"])
-        if case is None or stem is None or not r["order"]:
+    summary = read_summary(ROOT / "data" / "convergence-together-summary.csv")
+    for (case_name, _, quantity), fit in summary.items():
+        case, stem = CELL_MEAN_CASES.get(case_name), CHECKED.get(quantity)
+        if case is None or stem is None or math.isnan(fit["order"]):
             continue
-        fit = {"ratio": float(r["ratio"]), "levels": float(r["levels"])}
-        numbers[f"advice_{case}_{stem}_step"] = step_for_error(
-            float(r["finest_value"]), float(r["limit"]), float(r["order"]), finest_step(fit),
-            ADVICE_TARGET)
+        numbers[f"advice_{case}_{stem}_step"] = advised_step(fit)
     largest = {"all": 0.0, "depth_pressure": 0.0}
     for r in rows("convergence-check.csv"):
         case, stem = CELL_MEAN_CASES.get(r["case"]), CHECKED.get(r["quantity"])

@@ -56,4 +56,5 @@ def tune_malloc() -> bool:
     libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6")
     settings = ((_M_MMAP_THRESHOLD, MMAP_THRESHOLD), (_M_TRIM_THRESHOLD, TRIM_THRESHOLD),
                 (_M_MMAP_MAX, MMAP_MAX))
+    # a list, not a generator: every setting is applied even when an earlier one is refused
     return all([libc.mallopt(parameter, value) == 1 for parameter, value in settings])

@@ -34,6 +34,7 @@ from sacflow.studies.richardson import (
     Extrapolation,
     extrapolate,
     relative_errors,
+    step_for_error,
     value_at_step,
 )
 
@@ -41,7 +42,9 @@ __all__ = [
     "CHECK_COLUMNS",
     "LEVEL_COLUMNS",
     "SUMMARY_COLUMNS",
+    "TARGET_ERROR",
     "SequenceResult",
+    "advised_step",
     "check_rows",
     "level_rows",
     "plot_errors",
@@ -68,6 +71,9 @@ CHECK_COLUMNS: tuple[str, ...] = (
     "unit", "value", "predicted", "limit", "relative_uncertainty", "order", "relative_error",
     "predicted_error", "discrepancy",
 )
+#: Relative error the advice of a study is for (issue #32: every quantity within half a percent
+#: of its converged limit).
+TARGET_ERROR = 0.005
 UM, MPA = 1e6, 1e-6
 #: Behaviour of a sequence with a level that did not run (or a quantity it does not have).
 MISSING = "missing"
@@ -191,6 +197,16 @@ def _parsed(column: str, text: str | None) -> Any:
 def finest_step(row: Mapping[str, Any]) -> float:
     """Return the step of a summary row's finest level (the coarsest's is 1): r^−(levels − 1)."""
     return float(row["ratio"]) ** -(float(row["levels"]) - 1.0)
+
+
+def advised_step(row: Mapping[str, Any], target: float = TARGET_ERROR) -> float:
+    """Step at which a summary row's model f∞ + C hᵖ is within ``target`` of its limit.
+
+    :func:`~sacflow.studies.richardson.step_for_error` through the row's finest level (NaN for
+    a row without an order or a limit, infinite when its finest level is the limit).
+    """
+    return step_for_error(float(row["finest_value"]), float(row["limit"]), float(row["order"]),
+                          finest_step(row), target)
 
 
 def check_rows(case: str, sequence: str, step: float, level: Discretisation,
