@@ -8,7 +8,7 @@ from numpy.testing import assert_allclose, assert_array_equal
 from sacflow.kernels.convolution import next_regular
 from sacflow.kernels.cuboid import PARITY
 from sacflow.kernels.fft import RealFFT, RealToReal
-from sacflow.kernels.pair_products import PAIRS, depth_sums, pair_products
+from sacflow.kernels.pair_products import DEPTH_SUM_BLOCKS, PAIRS, depth_sums, pair_products
 
 
 @pytest.mark.parametrize(
@@ -101,21 +101,26 @@ def test_pair_products_equal_the_dense_six_by_six_products():
 def test_depth_sums_equal_numpy_contraction():
     """Surface fields: Σ_d Σ_m spec_d(m) K_qd(m), the 13 and 23 kernels stored divided by i."""
     rng = np.random.default_rng(5)
-    Q, M, L1, L2h = 2, 3, 5, 5
+    Q, M, L1, L2h = 2, 7, 5, 5
     spec = rng.standard_normal((6, M, L1, L2h)) + 1j * rng.standard_normal((6, M, L1, L2h))
     kernels = rng.standard_normal((Q, 6, M, L1 // 2 + 1, L2h))
     full = np.stack([mirrored(kernels[:, d], PARITY[0, d], 2, L1) for d in range(6)], axis=1)
     imaginary = np.array([1, 1, 1, 1, 1j, 1j])[None, :, None, None, None]
     expected = np.einsum("dmab,qdmab->qab", spec, imaginary * full)
-    half = L1 // 2 + 1  # the stored kernel rows
-    out = np.full((Q, L1, L2h), np.nan, dtype=complex)
-    depth_sums(spec, kernels, out, 0, half)
-    assert_allclose(out, expected, rtol=1e-13, atol=1e-13)
-    split = np.full((Q, L1, L2h), np.nan, dtype=complex)
-    depth_sums(spec, kernels, split, 2, half)  # a second thread's stored row 2: rows 2 and 3
-    assert np.isnan(split[:, [0, 1, 4]]).all() and not np.isnan(split[:, 2:4]).any()
+    partial = np.full((DEPTH_SUM_BLOCKS, Q, L1, L2h), np.nan, dtype=complex)
+    depth_sums(spec, kernels, partial, 0, DEPTH_SUM_BLOCKS)
+    assert_allclose(partial.sum(axis=0), expected, rtol=1e-13, atol=1e-13)
+    split = np.full_like(partial, np.nan)
+    depth_sums(spec, kernels, split, 2, DEPTH_SUM_BLOCKS)  # a second thread's blocks
+    assert np.isnan(split[:2]).all() and not np.isnan(split[2:]).any()
     depth_sums(spec, kernels, split, 0, 2)
-    assert_array_equal(split, out)  # the same sums in the same order, whatever the split
+    assert_array_equal(split, partial)  # the same sums in the same order, whatever the split
+    # each block sums its own depth frequencies: with the other planes zero, the others vanish
+    only = np.zeros_like(spec)
+    only[:, M // DEPTH_SUM_BLOCKS:2 * M // DEPTH_SUM_BLOCKS] = spec[:, M // DEPTH_SUM_BLOCKS:
+                                                                 2 * M // DEPTH_SUM_BLOCKS]
+    depth_sums(only, kernels, split, 0, DEPTH_SUM_BLOCKS)
+    assert not split[[0, 2, 3]].any() and split[1].any()
 
 
 def test_pyfftw_is_imported_without_dask_array_and_scipy_fft_which_stay_importable():

@@ -229,11 +229,13 @@ class HalfSpaceEigenstrain:
         ``kernels`` stacks Q sets (traction, displacement); returns (Q, n1, n2).
         """
         n1, n2, _ = self.shape
-        sums = np.empty((kernels.shape[0], *spectrum.shape[2:]), dtype=complex)
-        from sacflow.kernels.pair_products import depth_sums
+        from sacflow.kernels.pair_products import DEPTH_SUM_BLOCKS, depth_sums
 
-        over_ranges(depth_sums, kernels.shape[3], self.threads, spectrum, kernels, sums,
-                    weight=2 * 6 * spectrum.shape[1] * spectrum.shape[3])
+        partial = np.empty((DEPTH_SUM_BLOCKS, kernels.shape[0], *spectrum.shape[2:]),
+                           dtype=complex)
+        over_ranges(depth_sums, DEPTH_SUM_BLOCKS, self.threads, spectrum, kernels, partial,
+                    weight=spectrum.size // DEPTH_SUM_BLOCKS)
+        sums = partial.sum(axis=0)  # the blocks in order: the same bits whatever the threads
         fields = np.empty((kernels.shape[0], n1, n2))
         for q, spectrum2 in enumerate(sums):
             self._fft2.spectrum[0] = spectrum2

@@ -24,7 +24,7 @@ import numpy as np
 
 from sacflow.kernels.cuboid import PARITY
 
-__all__ = ["EVEN_PAIRS", "PAIRS", "PARITY_X1", "depth_sums", "pair_products"]
+__all__ = ["DEPTH_SUM_BLOCKS", "EVEN_PAIRS", "PAIRS", "PARITY_X1", "depth_sums", "pair_products"]
 
 #: Storage order of the 21 kernels: pair (c, d) with c ≥ d (row c, column d of the weighted
 #: matrix). The 13 pairs even in x3 (real spectra) come first, then the 8 even–odd pairs
@@ -105,16 +105,23 @@ def pair_products(spec: np.ndarray, kernels: np.ndarray, inv_weight: np.ndarray,
                 out[5, m, i, j] = w5 * o5 + correction[5, m, ii, j] * ip
 
 
-@numba.njit(nogil=True, fastmath=True, cache=True, boundscheck=False)
-def depth_sums(spec: np.ndarray, kernels: np.ndarray, out: np.ndarray, first: int,
-               last: int) -> None:  # pragma: no cover - compiled (tested via Python)
-    """``out_q = Σ_d Σ_m spec_d(m) kernels_qd(m)``: surface fields from depth spectra.
+#: Blocks of depth frequencies of :func:`depth_sums`, each summed into its own partial result
+#: (threads take whole blocks). Fixed, not one per thread: the partial sums, and so the surface
+#: fields, do not depend on the number of threads; four blocks keep up to four threads busy.
+DEPTH_SUM_BLOCKS = 4
 
-    Written for the stored kernel rows first ≤ r < last (0 ≤ r ≤ L1 // 2): the rows k1 = r
-    and k1 = L1 − r of the result, which read the same kernel row (module notes). Threads
-    share the stored rows out between them, so that each reads its own part of the kernels
-    (split by k1, both would stream the whole kernel array from memory); each sum runs in the
-    same order whatever the split.
+
+@numba.njit(nogil=True, fastmath=True, cache=True, boundscheck=False)
+def depth_sums(spec: np.ndarray, kernels: np.ndarray, partial: np.ndarray, first: int,
+               last: int) -> None:  # pragma: no cover - compiled (tested via Python)
+    """Partial surface fields ``partial_b,q = Σ_d Σ_{m in block b} spec_d(m) kernels_qd(m)``.
+
+    Written for the blocks first ≤ b < last of :data:`DEPTH_SUM_BLOCKS` contiguous ranges of
+    depth frequencies; the surface fields are ``partial.sum(axis=0)``. Each thread streams its
+    own planes of the spectra and the kernels, whole and in order, into a partial result that
+    stays in its core's cache (split by rows of the result instead, the two threads' four
+    interleaved streams, the spectra and two kernel sets, did not gain from the second thread:
+    ``docs/performance.md``). Each sum runs in the same order whatever the threads.
 
     Parameters
     ----------
@@ -122,28 +129,30 @@ def depth_sums(spec: np.ndarray, kernels: np.ndarray, out: np.ndarray, first: in
         Eigenstrain spectra.
     kernels : float ndarray (Q, 6, M, L1 // 2 + 1, L2h)
         Q sets of surface kernels (e.g. traction and displacement), summed in one pass; those
-        of the components 13 and 23 are imaginary, stored divided by ``i``.
-    out : complex ndarray (Q, L1, L2h)
-        The lateral spectra of the Q surface fields (rows r and L1 − r, first ≤ r < last,
-        overwritten).
+        of the components 13 and 23 are imaginary, stored divided by ``i``. Row ``L1 − r`` of
+        the result reads stored row ``r`` (module notes).
+    partial : complex ndarray (DEPTH_SUM_BLOCKS, Q, L1, L2h)
+        Blocks first ≤ b < last overwritten.
     """
     Q, M, L1, L2h = kernels.shape[0], spec.shape[1], spec.shape[2], spec.shape[3]
-    # the mirrored rows i = L1 - r of the stored rows r (0 < r < i), swept ascending: the
-    # memory prefetches an ascending stream better than a descending one (docs/performance.md)
-    lo, hi = max(L1 - last + 1, L1 // 2 + 1), min(L1 - first + 1, L1)
-    out[:, first:last] = 0.0
-    out[:, lo:hi] = 0.0
-    for d in range(6):
-        # kernels of the components even in x3 are real; of 13 and 23 imaginary, stored / i
-        factor = 1.0 + 0j if d < 4 else 1j
-        mirror = factor * PARITY_X1[d]  # the kernels of 12 and 13 (odd in x1) change sign
-        for m in range(M):
-            for r in range(first, last):
-                for q in range(Q):
-                    for j in range(L2h):
-                        out[q, r, j] += factor * (spec[d, m, r, j] * kernels[q, d, m, r, j])
-            for i in range(lo, hi):
-                r = L1 - i
-                for q in range(Q):
-                    for j in range(L2h):
-                        out[q, i, j] += mirror * (spec[d, m, i, j] * kernels[q, d, m, r, j])
+    half = kernels.shape[3]
+    blocks = partial.shape[0]
+    for b in range(first, last):
+        out = partial[b]
+        out[...] = 0.0
+        for d in range(6):
+            # kernels of the components even in x3 are real; of 13 and 23 imaginary, stored / i
+            factor = 1.0 + 0j if d < 4 else 1j
+            mirror = factor * PARITY_X1[d]  # the kernels of 12 and 13 (odd in x1) change sign
+            for m in range(b * M // blocks, (b + 1) * M // blocks):
+                for r in range(half):
+                    for q in range(Q):
+                        for j in range(L2h):
+                            out[q, r, j] += factor * (spec[d, m, r, j] * kernels[q, d, m, r, j])
+                # the mirrored rows i = L1 - r of the stored rows r, swept ascending: the
+                # memory prefetches an ascending stream better than a descending one
+                for i in range(half, L1):
+                    r = L1 - i
+                    for q in range(Q):
+                        for j in range(L2h):
+                            out[q, i, j] += mirror * (spec[d, m, i, j] * kernels[q, d, m, r, j])
