@@ -1,0 +1,159 @@
+"""The half-space correction of one cuboid: centre-sampled (the operator) against quadrature.
+
+``python pipelines/traction_quadrature.py RATIO [--layer L] [--window W] [--layers Z] [--gauss G]``
+
+The eigenstrain operator (:class:`~sacflow.kernels.eigenstrain.HalfSpaceEigenstrain`) removes
+the normal traction ``t`` that the infinite-space cuboids and their images leave on the surface
+as a uniform pressure on each surface cell equal to ``t`` at the cell's centre (Love's
+rectangles). The exact correction (for the same piecewise-uniform eigenstrain and the same
+footprint) is Boussinesq's response to ``t`` itself; the two differ by
+
+    Δ(x) = ∫ B(x − y; x3) [t(y) − t(y_J)] dy,    y in surface cell J,
+
+``B`` Boussinesq's stress of a point force (:func:`~sacflow.kernels.surface.boussinesq_stress`)
+and ``t`` the closed-form traction of the cuboid and its image (as the operator's set-up takes
+it). Here ``Δ`` is integrated with G × G Gauss–Legendre points per surface cell, for one cuboid
+of unit eigenstrain (each of the six components) in layer L of a (2W + 1)² × Z box with
+dx/dz = RATIO, at the centres of the box's cells. Two independent checks of the quadrature:
+
+* the operator on a grid F times finer laterally (the same cuboid split, the traction sampled
+  at the centres of the finer cells) must approach the operator plus ``Δ`` as F grows;
+* ``Δ`` must not move when G doubles.
+
+Prints, per source component: the largest first-layer stress of the cuboid, the largest
+``|Δ|``, how far each finer grid is from the operator and from the operator plus ``Δ``, and the
+largest ``|Δ|`` by lateral distance from the source (in cells) and by target layer: the reach
+a short-range correction would need. Stress per unit eigenstrain, in units of 2μ.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+import numpy as np
+
+from sacflow.kernels.cuboid import PARITY, cuboid_stress_component
+from sacflow.kernels.eigenstrain import HalfSpaceEigenstrain
+from sacflow.kernels.surface import boussinesq_stress
+
+E, NU = 2.6, 0.3  # 2μ = E / (1 + ν) = 2: stresses come out in units of 2μ, times 2
+MU = E / (2.0 * (1.0 + NU))
+MIRROR_SIGN = PARITY[2]  # image eigenstrain: 13 and 23 change sign
+FINER = (3, 9)  # lateral refinements of the reference grids (odd: coarse centres stay centres)
+
+
+def surface_traction(y1: np.ndarray, y2: np.ndarray, depth: float, half: tuple[float, ...],
+                     source: int) -> np.ndarray:
+    """σ33 on the surface of a unit ``source`` cuboid centred at ``depth`` and its image.
+
+    As the operator's set-up: the limit from above the surface (σ33 is continuous across the
+    top face of a first-layer cuboid, where the closed form is one-sided).
+    """
+    eta = 1e-10 * half[2]
+    own = cuboid_stress_component(y1, y2, -depth - eta, *half, NU, MU, source)[..., 2]
+    image = cuboid_stress_component(y1, y2, depth - eta, *half, NU, MU, source)[..., 2]
+    result: np.ndarray = own + MIRROR_SIGN[source] * image
+    return result
+
+
+def quadrature_delta(shape: tuple[int, int, int], spacing: tuple[float, float, float],
+                     layer: int, gauss: int) -> np.ndarray:
+    """``Δ`` at every cell centre of the box for a unit cuboid at the footprint's centre.
+
+    Returns (6 sources, n1, n2, n3, 6 components).
+    """
+    n1, n2, n3 = shape
+    d1, d2, d3 = spacing
+    half = (d1 / 2, d2 / 2, d3 / 2)
+    c1, c2 = n1 // 2, n2 // 2
+    nodes, weights = np.polynomial.legendre.leggauss(gauss)
+    # quadrature points of every surface cell, relative to the source's centre line
+    cell1 = (np.arange(n1) - c1) * d1
+    cell2 = (np.arange(n2) - c2) * d2
+    q1 = (cell1[:, None] + 0.5 * d1 * nodes[None, :]).reshape(-1)  # (n1 * G,)
+    q2 = (cell2[:, None] + 0.5 * d2 * nodes[None, :]).reshape(-1)
+    w = np.outer(np.tile(weights * 0.5 * d1, n1), np.tile(weights * 0.5 * d2, n2))
+    Y1, Y2 = np.meshgrid(q1, q2, indexing="ij")
+    C1, C2 = np.meshgrid(cell1, cell2, indexing="ij")
+    depth = (layer + 0.5) * d3
+    out = np.zeros((6, n1, n2, n3, 6))
+    for source in range(6):
+        t = surface_traction(Y1, Y2, depth, half, source)
+        centre = surface_traction(C1, C2, depth, half, source)
+        deviation = (t - np.repeat(np.repeat(centre, gauss, 0), gauss, 1)) * w
+        for k in range(n3):
+            z = (k + 0.5) * d3
+            for i in range(n1):
+                for j in range(n2):
+                    b = boussinesq_stress(cell1[i] - Y1, cell2[j] - Y2, z, NU)
+                    out[source, i, j, k] = np.einsum("ab,abc->c", deviation, b)
+    return out
+
+
+def operator_stress(shape: tuple[int, int, int], spacing: tuple[float, float, float],
+                    layer: int, finer: int) -> np.ndarray:
+    """The operator's stress at the coarse centres, the surface ``finer`` times refined.
+
+    Returns (6 sources, n1, n2, n3, 6).
+    """
+    n1, n2, n3 = shape
+    f = finer
+    op = HalfSpaceEigenstrain((n1 * f, n2 * f, n3), (spacing[0] / f, spacing[1] / f,
+                                                     spacing[2]), E, NU, threads=1)
+    c1, c2 = n1 // 2, n2 // 2
+    out = np.empty((6, n1, n2, n3, 6))
+    for source in range(6):
+        eps = np.zeros((n1 * f, n2 * f, n3, 6))
+        eps[c1 * f:(c1 + 1) * f, c2 * f:(c2 + 1) * f, layer, source] = 1.0
+        out[source] = op.residual_stress(eps)[f // 2::f, f // 2::f]
+    return out
+
+
+def reach(delta: np.ndarray, layer_cut: int) -> list[str]:
+    """Largest |Δ| by Chebyshev distance from the source column, first ``layer_cut`` layers."""
+    n1, n2 = delta.shape[:2]
+    r = np.maximum(np.abs(np.arange(n1) - n1 // 2)[:, None],
+                   np.abs(np.arange(n2) - n2 // 2)[None, :])
+    rows = []
+    for k in range(min(layer_cut, delta.shape[2])):
+        by_r = [np.abs(delta[r == d, k]).max() for d in range(int(r.max()) + 1)]
+        rows.append(f"    layer {k}: " + " ".join(f"{v:.1e}" for v in by_r))
+    return rows
+
+
+def main(argv: list[str]) -> None:
+    """Compare, print the reach of the correction (module notes)."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("ratio", type=float, help="cell aspect ratio dx/dz")
+    parser.add_argument("--layer", type=int, default=0, help="source layer (0: the top one)")
+    parser.add_argument("--window", type=int, default=4, help="W: the box is (2W + 1)² cells")
+    parser.add_argument("--layers", type=int, default=4, help="Z: layers of the box")
+    parser.add_argument("--gauss", type=int, default=8, help="G: Gauss points per cell side")
+    args = parser.parse_args(argv)
+    if not args.ratio > 0 or args.window < 1 or args.gauss < 2 or not (
+            0 <= args.layer < args.layers):
+        parser.error("need RATIO > 0, --window >= 1, --gauss >= 2, 0 <= --layer < --layers")
+    n = 2 * args.window + 1
+    shape, spacing = (n, n, args.layers), (args.ratio, args.ratio, 1.0)
+    delta = quadrature_delta(shape, spacing, args.layer, args.gauss)
+    again = quadrature_delta(shape, spacing, args.layer, 2 * args.gauss)
+    coarse = operator_stress(shape, spacing, args.layer, 1)
+    finer = {f: operator_stress(shape, spacing, args.layer, f) for f in FINER}
+    for source in range(6):
+        scale = np.abs(coarse[source, :, :, 0]).max()
+        print(f"dx/dz = {args.ratio}, source {source} in layer {args.layer}: first-layer stress "
+              f"up to {scale:.3g}; |Δ| up to {np.abs(delta[source]).max():.3g} (first layer "
+              f"{np.abs(delta[source, :, :, 0]).max():.3g}); G -> 2G moves Δ by "
+              f"{np.abs(again[source] - delta[source]).max():.1e}")
+        for f, stress in finer.items():
+            off = np.abs(stress[source] - coarse[source]).max()
+            left = np.abs(stress[source] - coarse[source] - delta[source]).max()
+            print(f"  {f} x finer surface: from the operator {off:.3g}, "
+                  f"from the operator + Δ {left:.3g}")
+        print("  largest |Δ| by lateral distance (cells 0, 1, ...):")
+        print("\n".join(reach(delta[source], args.layers)))
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
