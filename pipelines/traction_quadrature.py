@@ -1,6 +1,7 @@
 """The half-space correction of one cuboid: centre-sampled (the operator) against quadrature.
 
-``python pipelines/traction_quadrature.py RATIO [--layer L] [--window W] [--layers Z] [--gauss G]``
+``python pipelines/traction_quadrature.py RATIO [--layer L] [--window W] [--layers Z]
+[--gauss G]``, or ``... 0 --press RUN.npz [--sources L] [--window W] [--layers Z]``
 
 The eigenstrain operator (:class:`~sacflow.kernels.eigenstrain.HalfSpaceEigenstrain`) removes
 the normal traction ``t`` that the infinite-space cuboids and their images leave on the surface
@@ -23,13 +24,16 @@ dx/dz = RATIO, at the centres of the box's cells. Two independent checks of the 
 Prints, per source component: the largest first-layer stress of the cuboid, the largest
 ``|Δ|``, how far each finer grid is from the operator and from the operator plus ``Δ``, and the
 largest ``|Δ|`` by lateral distance from the source (in cells) and by target layer: the reach
-a short-range correction would need. Stress per unit eigenstrain, in units of 2μ.
+a short-range correction would need. Stress per unit eigenstrain, in units of μ (μ = 1).
+With ``--press``: ``Δ`` of a stored press run's plastic strain (sources in its first L layers,
+targets in its first Z layers, cut to ±W cells), added to the operator's residual stress.
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
 import numpy as np
 
@@ -37,10 +41,11 @@ from sacflow.kernels.cuboid import PARITY, cuboid_stress_component
 from sacflow.kernels.eigenstrain import HalfSpaceEigenstrain
 from sacflow.kernels.surface import boussinesq_stress
 
-E, NU = 2.6, 0.3  # 2μ = E / (1 + ν) = 2: stresses come out in units of 2μ, times 2
-MU = E / (2.0 * (1.0 + NU))
+E_UNIT, NU = 2.6, 0.3  # μ = E / (2 (1 + ν)) = 1: stress per unit eigenstrain, in units of μ
+MU = E_UNIT / (2.0 * (1.0 + NU))
 MIRROR_SIGN = PARITY[2]  # image eigenstrain: 13 and 23 change sign
 FINER = (3, 9)  # lateral refinements of the reference grids (odd: coarse centres stay centres)
+PRESS_E = 219e9  # the press's steel (pipelines/dent-from-indentation-press.toml)
 
 
 def surface_traction(y1: np.ndarray, y2: np.ndarray, depth: float, half: tuple[float, ...],
@@ -100,7 +105,7 @@ def operator_stress(shape: tuple[int, int, int], spacing: tuple[float, float, fl
     n1, n2, n3 = shape
     f = finer
     op = HalfSpaceEigenstrain((n1 * f, n2 * f, n3), (spacing[0] / f, spacing[1] / f,
-                                                     spacing[2]), E, NU, threads=1)
+                                                     spacing[2]), E_UNIT, NU, threads=1)
     c1, c2 = n1 // 2, n2 // 2
     out = np.empty((6, n1, n2, n3, 6))
     for source in range(6):
@@ -108,6 +113,27 @@ def operator_stress(shape: tuple[int, int, int], spacing: tuple[float, float, fl
         eps[c1 * f:(c1 + 1) * f, c2 * f:(c2 + 1) * f, layer, source] = 1.0
         out[source] = op.residual_stress(eps)[f // 2::f, f // 2::f]
     return out
+
+
+def corrected_field(eps: np.ndarray, spacing: tuple[float, float, float], E: float,
+                    sources: int, targets: int, window: int, gauss: int) -> np.ndarray:
+    """``Δ`` of a whole eigenstrain field, cut to a window: what the operator's stress lacks.
+
+    Sources in the first ``sources`` layers, targets in the first ``targets`` layers and within
+    ``window`` cells laterally of each source (the reach that :func:`reach` prints); Young's
+    modulus ``E`` (``Δ`` is proportional to it at a fixed ν). Returns (n1, n2, targets, 6).
+    """
+    n1, n2, _ = eps.shape[:3]
+    w = 2 * window + 1
+    out = np.zeros((n1 + 2 * window, n2 + 2 * window, targets, 6))
+    for layer in range(sources):
+        kernel = quadrature_delta((w, w, targets), spacing, layer, gauss) * (E / E_UNIT)
+        for i in range(w):
+            for j in range(w):
+                # a source at (x, y) adds kernel[:, i, j] at (x + i - W, y + j - W)
+                out[i:i + n1, j:j + n2] += np.einsum(
+                    "xyd,dzc->xyzc", eps[:, :, layer, :], kernel[:, i, j])
+    return out[window:window + n1, window:window + n2]
 
 
 def reach(delta: np.ndarray, layer_cut: int) -> list[str]:
@@ -122,6 +148,26 @@ def reach(delta: np.ndarray, layer_cut: int) -> list[str]:
     return rows
 
 
+def press_check(path: Path, sources: int, targets: int, window: int, gauss: int) -> None:
+    """The first layers' residual σ33 of a stored run's plastic strain, with and without ``Δ``.
+
+    ``path``: an ``.npz`` of ``pipelines/press_run.py`` (stress sampling 1). Prints σ33 on the
+    axis and its minimum, per layer, from the operator and from the operator plus ``Δ``.
+    """
+    data = np.load(path)
+    eps, x1, x3 = data["eps"], data["x1"], data["x3"]
+    spacing = (float(x1[1] - x1[0]), float(x1[1] - x1[0]), float(x3[1] - x3[0]))
+    stress = HalfSpaceEigenstrain(eps.shape[:3], spacing, PRESS_E, NU).residual_stress(eps)
+    delta = corrected_field(eps, spacing, PRESS_E, sources, targets, window, gauss)
+    centre = int(np.argmin(np.abs(x1)))
+    print(f"{path.name}: dx/dz {spacing[0] / spacing[2]:.2f}; Δ from {sources} source layers on "
+          f"{targets} target layers, window ±{window}, {gauss}² points per cell")
+    for k in range(targets):
+        s33, fixed = stress[:, :, k, 2] / 1e6, (stress[:, :, k, 2] + delta[:, :, k, 2]) / 1e6
+        print(f"  layer {k} ({x3[k] * 1e6:.1f} um): s33 axis {s33[centre, centre]:.0f} -> "
+              f"{fixed[centre, centre]:.0f} MPa, minimum {s33.min():.0f} -> {fixed.min():.0f} MPa")
+
+
 def main(argv: list[str]) -> None:
     """Compare, print the reach of the correction (module notes)."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -130,7 +176,15 @@ def main(argv: list[str]) -> None:
     parser.add_argument("--window", type=int, default=4, help="W: the box is (2W + 1)² cells")
     parser.add_argument("--layers", type=int, default=4, help="Z: layers of the box")
     parser.add_argument("--gauss", type=int, default=8, help="G: Gauss points per cell side")
+    parser.add_argument("--press", type=Path, default=None,
+                        help="RUN.npz of pipelines/press_run.py: apply Δ to its plastic strain")
+    parser.add_argument("--sources", type=int, default=2, help="source layers of --press's Δ")
     args = parser.parse_args(argv)
+    if args.press is not None:
+        if not args.press.is_file():
+            parser.error(f"{args.press} is not a file: run pipelines/press_run.py first")
+        press_check(args.press, args.sources, args.layers, args.window, args.gauss)
+        return
     if not args.ratio > 0 or args.window < 1 or args.gauss < 2 or not (
             0 <= args.layer < args.layers):
         parser.error("need RATIO > 0, --window >= 1, --gauss >= 2, 0 <= --layer < --layers")
