@@ -37,63 +37,27 @@ from pathlib import Path
 
 import numpy as np
 
-from sacflow.kernels.cuboid import PARITY, cuboid_stress_component
 from sacflow.kernels.eigenstrain import HalfSpaceEigenstrain
-from sacflow.kernels.surface import boussinesq_stress
+from sacflow.kernels.traction_stencil import TractionStencil, stencil_kernels
 
 E_UNIT, NU = 2.6, 0.3  # μ = E / (2 (1 + ν)) = 1: stress per unit eigenstrain, in units of μ
 MU = E_UNIT / (2.0 * (1.0 + NU))
-MIRROR_SIGN = PARITY[2]  # image eigenstrain: 13 and 23 change sign
 FINER = (3, 9)  # lateral refinements of the reference grids (odd: coarse centres stay centres)
 PRESS_E = 219e9  # the press's steel (pipelines/dent-from-indentation-press.toml)
 
 
-def surface_traction(y1: np.ndarray, y2: np.ndarray, depth: float, half: tuple[float, ...],
-                     source: int) -> np.ndarray:
-    """σ33 on the surface of a unit ``source`` cuboid centred at ``depth`` and its image.
-
-    As the operator's set-up: the limit from above the surface (σ33 is continuous across the
-    top face of a first-layer cuboid, where the closed form is one-sided).
-    """
-    eta = 1e-10 * half[2]
-    own = cuboid_stress_component(y1, y2, -depth - eta, *half, NU, MU, source)[..., 2]
-    image = cuboid_stress_component(y1, y2, depth - eta, *half, NU, MU, source)[..., 2]
-    result: np.ndarray = own + MIRROR_SIGN[source] * image
-    return result
-
-
 def quadrature_delta(shape: tuple[int, int, int], spacing: tuple[float, float, float],
                      layer: int, gauss: int) -> np.ndarray:
-    """``Δ`` at every cell centre of the box for a unit cuboid at the footprint's centre.
+    """``Δ`` at every cell centre of a (2W + 1)² × Z box, unit cuboid at the footprint's centre.
 
-    Returns (6 sources, n1, n2, n3, 6 components).
+    :func:`~sacflow.kernels.traction_stencil.stencil_kernels` of that layer, laid out
+    (6 sources, n1, n2, n3, 6 components).
     """
     n1, n2, n3 = shape
-    d1, d2, d3 = spacing
-    half = (d1 / 2, d2 / 2, d3 / 2)
-    c1, c2 = n1 // 2, n2 // 2
-    nodes, weights = np.polynomial.legendre.leggauss(gauss)
-    # quadrature points of every surface cell, relative to the source's centre line
-    cell1 = (np.arange(n1) - c1) * d1
-    cell2 = (np.arange(n2) - c2) * d2
-    q1 = (cell1[:, None] + 0.5 * d1 * nodes[None, :]).reshape(-1)  # (n1 * G,)
-    q2 = (cell2[:, None] + 0.5 * d2 * nodes[None, :]).reshape(-1)
-    w = np.outer(np.tile(weights * 0.5 * d1, n1), np.tile(weights * 0.5 * d2, n2))
-    Y1, Y2 = np.meshgrid(q1, q2, indexing="ij")
-    C1, C2 = np.meshgrid(cell1, cell2, indexing="ij")
-    depth = (layer + 0.5) * d3
-    out = np.zeros((6, n1, n2, n3, 6))
-    for source in range(6):
-        t = surface_traction(Y1, Y2, depth, half, source)
-        centre = surface_traction(C1, C2, depth, half, source)
-        deviation = (t - np.repeat(np.repeat(centre, gauss, 0), gauss, 1)) * w
-        for k in range(n3):
-            z = (k + 0.5) * d3
-            for i in range(n1):
-                for j in range(n2):
-                    b = boussinesq_stress(cell1[i] - Y1, cell2[j] - Y2, z, NU)
-                    out[source, i, j, k] = np.einsum("ab,abc->c", deviation, b)
-    return out
+    if n1 != n2 or n1 % 2 == 0:
+        raise ValueError(f"the box must be (2W + 1)² cells laterally, got {n1} × {n2}")
+    kernels = stencil_kernels(spacing, NU, MU, layer + 1, n3, n1 // 2, gauss)[layer]
+    return np.moveaxis(kernels, 3, 0)
 
 
 def operator_stress(shape: tuple[int, int, int], spacing: tuple[float, float, float],
@@ -123,17 +87,9 @@ def corrected_field(eps: np.ndarray, spacing: tuple[float, float, float], E: flo
     ``window`` cells laterally of each source (the reach that :func:`reach` prints); Young's
     modulus ``E`` (``Δ`` is proportional to it at a fixed ν). Returns (n1, n2, targets, 6).
     """
-    n1, n2, _ = eps.shape[:3]
-    w = 2 * window + 1
-    out = np.zeros((n1 + 2 * window, n2 + 2 * window, targets, 6))
-    for layer in range(sources):
-        kernel = quadrature_delta((w, w, targets), spacing, layer, gauss) * (E / E_UNIT)
-        for i in range(w):
-            for j in range(w):
-                # a source at (x, y) adds kernel[:, i, j] at (x + i - W, y + j - W)
-                out[i:i + n1, j:j + n2] += np.einsum(
-                    "xyd,dzc->xyzc", eps[:, :, layer, :], kernel[:, i, j])
-    return out[window:window + n1, window:window + n2]
+    stencil = TractionStencil(eps.shape[:3], spacing, NU, E / (2.0 * (1.0 + NU)),
+                              sources=sources, targets=targets, window=window, gauss=gauss)
+    return stencil.apply(stencil.top(eps))
 
 
 def reach(delta: np.ndarray, layer_cut: int) -> list[str]:

@@ -122,6 +122,7 @@ def solver_inputs(case: Case, surface: MeasuredSurface | None = None,
         inclusion_tolerance=opts.inclusion_tolerance,
         inclusion_max_iterations=opts.inclusion_max_iterations,
         stress_sampling=opts.stress_sampling,
+        surface_correction=opts.surface_correction,
     )
     output = OutputPlan(case.output.volume_every, tuple(case.output.every_step))
     conditions = InitialConditions(

@@ -83,6 +83,7 @@ from sacflow.kernels.cuboid import SHEAR_WEIGHTS
 from sacflow.kernels.eigenstrain_memory import kernel_bytes, padded_lengths
 from sacflow.kernels.eigenstrain_spectra import EVEN, KERNEL_VERSION, ODD, kernel_spectra
 from sacflow.kernels.fft import RealFFT, RealToReal, default_threads
+from sacflow.kernels.traction_stencil import TractionStencil
 from sacflow.machine.kernel_cache import cached_arrays
 from sacflow.machine.resources import available_memory
 from sacflow.machine.threads import contiguous_ranges, over_ranges
@@ -117,6 +118,10 @@ class HalfSpaceEigenstrain:
         (:mod:`sacflow.kernels.cell_average`): 1 (default) the centre value, more the cell
         mean (energy-consistent; the kernel set-up costs ``stress_sampling³`` times more, an
         application the same).
+    traction_quadrature : bool, optional
+        Add the part of the surface-traction correction that centre sampling misses near the
+        surface (:class:`~sacflow.kernels.traction_stencil.TractionStencil`); needs
+        ``stress_sampling = 1``. The kernel spectra (and their cache) are the same.
 
     Attributes
     ----------
@@ -139,6 +144,7 @@ class HalfSpaceEigenstrain:
         threads: int | None = None,
         max_bytes: int | None = None,
         stress_sampling: int = 1,
+        traction_quadrature: bool = False,
     ):
         from sacflow.errors import GridTooLargeError
 
@@ -147,6 +153,9 @@ class HalfSpaceEigenstrain:
         self.E, self.nu = float(E), float(nu)
         self.mu = self.E / (2.0 * (1.0 + self.nu))
         self.stress_sampling = check_sampling(stress_sampling)
+        if traction_quadrature and self.stress_sampling != 1:
+            raise ValueError("the traction quadrature is made for centre values: "
+                             "stress_sampling must be 1")
         need = kernel_bytes(self.shape)
         budget = available_memory() if max_bytes is None else int(max_bytes)
         if need > budget:
@@ -195,6 +204,11 @@ class HalfSpaceEigenstrain:
             np.asarray(spectra[name]) for name in ("pairs", "surface", "correction"))
         for arr in (self.pair_spectra, self.surface_spectra, self.correction_spectra):
             arr.flags.writeable = False
+        self._stencil: TractionStencil | None = None
+        self._top: np.ndarray | None = None  # the stencil's sources, from surface_fields
+        if traction_quadrature:
+            self._stencil = TractionStencil(self.shape, self.spacing, self.nu, self.mu,
+                                            self.threads)
 
     def cache_parameters(self) -> dict[str, Any]:
         """Everything that determines the kernel spectra (the key of the disk cache).
@@ -306,6 +320,8 @@ class HalfSpaceEigenstrain:
         which must come next (a contact solve may run in between: its transforms are others).
         """
         spec = self._forward(eps)
+        if self._stencil is not None:
+            self._top = self._stencil.top(eps)
         fields = self._surface_fields(spec, self.surface_spectra if with_displacement
                                       else self.surface_spectra[:1])
         self._spectra_of_eps = True
@@ -336,6 +352,8 @@ class HalfSpaceEigenstrain:
         stress = np.empty((n1, n2, n3, 6))
         over_ranges(box_from_lines, n1, self.threads, self._lateral.real[:, :, :n1, :n2],
                     stress, weight=n2 * n3 * 6)
+        if self._stencil is not None and self._top is not None:
+            stress[:, :, :self._stencil.targets] += self._stencil.apply(self._top)
         return stress
 
 

@@ -122,8 +122,9 @@ class EquivalentInclusion:
             hi = [min(int(c.max()) + SUB_BOX_MARGIN + 1, n)
                   for c, n in zip(self.cells[:2], phase.shape[:2], strict=True)]
             shape = (hi[0] - lo[0], hi[1] - lo[1], int(self.cells[2].max()) + 1)
-            self.sub = HalfSpaceEigenstrain(shape, spacing, E, nu, threads=threads,
-                                            stress_sampling=settings.stress_sampling)
+            self.sub = HalfSpaceEigenstrain(
+                shape, spacing, E, nu, threads=threads, stress_sampling=settings.stress_sampling,
+                traction_quadrature=settings.surface_correction == "quadrature")
             self.local = (self.cells[0] - lo[0], self.cells[1] - lo[1], self.cells[2])
             self.sub_shape = (*shape, COMPONENTS)
 

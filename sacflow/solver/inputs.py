@@ -184,7 +184,11 @@ class SolverSettings:
     :mod:`sacflow.mechanics.return_extrapolation`) or one backward-Euler step;
     ``stress_sampling`` the points per axis of a cell at which the stresses are averaged (1: the
     centre value; 2 or more: the cell mean, whose residual-stress operator is positive
-    semi-definite like the elastic energy, :mod:`sacflow.kernels.cell_average`).
+    semi-definite like the elastic energy, :mod:`sacflow.kernels.cell_average`);
+    ``surface_correction`` how the residual stress removes the surface traction of the cuboids:
+    sampled at the surface cells' centres (``"centre"``) or with its variation within the cells
+    of the first layers' cuboids integrated (``"quadrature"``,
+    :mod:`sacflow.kernels.traction_stencil`).
     """
 
     contact_tolerance: float = 1e-10
@@ -201,6 +205,7 @@ class SolverSettings:
     inclusion_max_iterations: int = 1000
     return_integration: Literal["extrapolated", "backward_euler"] = "extrapolated"
     stress_sampling: int = 1
+    surface_correction: Literal["centre", "quadrature"] = "centre"
 
 
 @dataclass(frozen=True)

@@ -59,12 +59,16 @@ class Operators:
     stress_sampling : int
         Points per axis of a cell at which the stresses (contact and residual) are averaged:
         1 the centre value, more the cell mean (:mod:`sacflow.kernels.cell_average`).
+    traction_quadrature : bool
+        Whether the residual stress integrates the surface traction of the first layers'
+        cuboids over each surface cell (:mod:`sacflow.kernels.traction_stencil`).
     """
 
     def __init__(self, window: tuple[int, int], body_shape: tuple[int, int],
                  cell: tuple[float, float], nz: int, dz: float, E: float, nu: float,
                  e_star: float, traction: tuple[float, float] | None, plastic: bool,
-                 threads: int | None, stress_sampling: int = 1) -> None:
+                 threads: int | None, stress_sampling: int = 1,
+                 traction_quadrature: bool = False) -> None:
         self.body_shape = body_shape
         self.stress_sampling = stress_sampling
         self.cell = cell
@@ -94,7 +98,7 @@ class Operators:
 
             self.eigen = HalfSpaceEigenstrain(
                 (*body_shape, nz), (dx1, dx2, dz), E, nu, threads=threads,
-                stress_sampling=stress_sampling,
+                stress_sampling=stress_sampling, traction_quadrature=traction_quadrature,
             )
 
     def contact_stress_parameters(self) -> dict[str, Any]:

@@ -96,7 +96,8 @@ class Simulation:
             self.operators = Operators(
                 grid.window, self.body_shape, spec.cell, self.nz, self.dz, material.E,
                 material.nu, inputs.contact.e_star, inputs.contact.traction, eigenstrains,
-                inputs.settings.fft_threads, inputs.settings.stress_sampling)
+                inputs.settings.fft_threads, inputs.settings.stress_sampling,
+                inputs.settings.surface_correction == "quadrature")
         initial = inputs.initial
         self.increments = IncrementSolver(self.operators, self.geometry, material,
                                           inputs.settings, self.coords.x3, initial.stress,
@@ -105,10 +106,8 @@ class Simulation:
         self.body = self._initial_body()
         self.history = ContactHistory()
         # the residual displacement the contact sees when this run's own is left out of the gap
-        self.fixed_gap_displacement = (
-            None if inputs.settings.residual_displacement_in_gap
-            else self.body.residual_displacement.copy()
-        )
+        self.fixed_gap_displacement = (None if inputs.settings.residual_displacement_in_gap
+                                       else self.body.residual_displacement.copy())
 
     def _initial_body(self) -> BodyState:
         """Return the body before the first increment: initial hardening, or a stored state.
