@@ -136,8 +136,8 @@ class SolverOptions(Model):
         "first layers' cuboids, which the centre value misses near the surface (a top-layer "
         "ε13 cuboid's traction is odd about the centre, where it is sampled); worth it when "
         "the plastic strain reaches the surface (a press, a dent), where it moves the first "
-        "layers' residual stress by hundreds of MPa; the stencil is set up in a second or "
-        "less and each application adds a pass over the first layers (the cost: "
+        "layers' residual stress by hundreds of MPa; the stencil is set up in 0.1 to 2 s "
+        "and each application adds a pass over the first layers (the cost: "
         "docs/convergence.md); needs stress_sampling = 1",
     )
 

@@ -20,7 +20,10 @@ appendix 1, Fig. 23): the half-space field is the sum of
    sign-flipped (their sum with 1 is free of shear traction on ``x3 = 0``);
 3. the half-space response to the normal traction ``p = σ33^{(1+2)}(x1, x2, 0)`` that 1+2 leave
    on the surface (removing it makes the surface traction-free), computed with Love's rectangle
-   stresses (:func:`sacflow.kernels.surface.rectangle_stress`).
+   stresses (:func:`sacflow.kernels.surface.rectangle_stress`). The traction is sampled at
+   each surface cell's centre and removed uniformly over the cell; with
+   ``traction_quadrature`` its variation within the cells, for the first layers' cuboids, is
+   added by a short-range stencil (:mod:`sacflow.kernels.traction_stencil`).
 
 Depth transforms. 1 + 2 is one infinite-space convolution of the eigenstrain extended to
 ``x3 < 0`` by its image: each component is even (11 22 33 12) or odd (13 23) in x3 about the
