@@ -22,7 +22,41 @@ import numpy as np
 
 from sacflow.kernels.eigenstrain import HalfSpaceEigenstrain
 
-E, NU = 219e9, 0.3
+E, NU = 219e9, 0.3  # the press's steel (pipelines/dent-from-indentation-press.toml)
+
+
+def load_press(path: Path, crop: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Return the final plastic strain, x1 and x3 of RUN.npz, ``crop`` cells off each side.
+
+    Raises ValueError with a one-line reason: not a run of ``pipelines/press_run.py``, or a
+    crop that is negative or cuts the plastic zone.
+    """
+    try:
+        with np.load(path) as data:
+            eps, x1, x3 = data["eps"], data["x1"], data["x3"]
+    except (OSError, ValueError, KeyError) as exc:
+        raise ValueError(f"{path} is not a run written by pipelines/press_run.py ({exc})") from None
+    n1 = eps.shape[0]
+    if crop < 0 or 2 * crop >= n1:
+        raise ValueError(f"crop must be from 0 to {(n1 - 1) // 2} cells, got {crop}")
+    keep = slice(crop, n1 - crop)
+    if np.abs(eps[keep, keep]).max() != np.abs(eps).max():
+        raise ValueError(f"a crop of {crop} cells cuts the plastic zone: crop fewer")
+    return eps[keep, keep], x1[keep], x3
+
+
+def finer_surface_stress(eps: np.ndarray, spacing: tuple[float, float, float],
+                         factor: int) -> np.ndarray:
+    """Residual stress of ``eps`` at its cells' centres, computed on a ``factor`` finer surface.
+
+    Each cell split ``factor`` × ``factor`` laterally (odd: the coarse centres are fine
+    centres), the layers unchanged: the same piecewise-uniform field, the traction sampled at the
+    finer cells' centres (the reference of the surface correction).
+    """
+    fine_eps = np.repeat(np.repeat(eps, factor, 0), factor, 1)
+    fine = HalfSpaceEigenstrain(fine_eps.shape[:3], (spacing[0] / factor, spacing[1] / factor,
+                                                     spacing[2]), E, NU, threads=1)
+    return fine.residual_stress(fine_eps)[factor // 2::factor, factor // 2::factor]
 
 
 def main(argv: list[str]) -> None:
@@ -36,21 +70,15 @@ def main(argv: list[str]) -> None:
         parser.error(f"{args.run} is not a file: run pipelines/press_run.py first")
     if args.factor < 1 or args.factor % 2 == 0:
         parser.error("factor must be an odd whole number >= 1 (coarse centres stay fine centres)")
-    data = np.load(args.run)
-    factor, crop = args.factor, args.crop
-    eps = data["eps"]
-    n1 = eps.shape[0]
-    keep = slice(crop, n1 - crop)
-    eps = eps[keep, keep]
-    x1, x3 = data["x1"][keep], data["x3"]
-    assert np.abs(data["eps"]).max() == np.abs(eps).max(), "the crop cuts the plastic zone"
+    factor = args.factor
+    try:
+        eps, x1, x3 = load_press(args.run, args.crop)
+    except ValueError as exc:
+        parser.error(str(exc))
     d1, d3 = float(x1[1] - x1[0]), float(x3[1] - x3[0])
     shape = eps.shape[:3]
     coarse = HalfSpaceEigenstrain(shape, (d1, d1, d3), E, NU, threads=1).residual_stress(eps)
-    fine_eps = np.repeat(np.repeat(eps, factor, 0), factor, 1)
-    fine = HalfSpaceEigenstrain(fine_eps.shape[:3], (d1 / factor, d1 / factor, d3), E, NU,
-                                threads=1).residual_stress(fine_eps)
-    fine = fine[factor // 2::factor, factor // 2::factor]
+    fine = finer_surface_stress(eps, (d1, d1, d3), factor)
     centre = int(np.argmin(np.abs(x1)))
     for k in range(min(3, shape[2])):
         diff = np.abs(coarse[:, :, k] - fine[:, :, k]).max(axis=(0, 1)) / 1e6

@@ -19,10 +19,10 @@ import time
 from pathlib import Path
 
 import numpy as np
+from press_refined_traction import NU, E, finer_surface_stress, load_press
 
 from sacflow.kernels.eigenstrain import HalfSpaceEigenstrain
 
-E, NU = 219e9, 0.3  # the press's steel (pipelines/dent-from-indentation-press.toml)
 FINER = (3, 5)
 
 
@@ -42,12 +42,10 @@ def main(argv: list[str]) -> None:
     args = parser.parse_args(argv)
     if not args.run.is_file():
         parser.error(f"{args.run} is not a file: run pipelines/press_run.py first")
-    data = np.load(args.run)
-    eps, x1, x3 = data["eps"], data["x1"], data["x3"]
-    keep = slice(args.crop, eps.shape[0] - args.crop)
-    if np.abs(eps[keep, keep]).max() != np.abs(eps).max():
-        parser.error("the crop cuts the plastic zone: crop fewer cells")
-    eps, x1 = eps[keep, keep], x1[keep]
+    try:
+        eps, x1, x3 = load_press(args.run, args.crop)
+    except ValueError as exc:
+        parser.error(str(exc))
     d1, d3 = float(x1[1] - x1[0]), float(x3[1] - x3[0])
     shape, centre = eps.shape[:3], int(np.argmin(np.abs(x1)))
     report("centre", HalfSpaceEigenstrain(shape, (d1, d1, d3), E, NU).residual_stress(eps),
@@ -57,10 +55,7 @@ def main(argv: list[str]) -> None:
            centre)
     for f in FINER:
         start = time.time()
-        fine_eps = np.repeat(np.repeat(eps, f, 0), f, 1)
-        fine = HalfSpaceEigenstrain(fine_eps.shape[:3], (d1 / f, d1 / f, d3), E,
-                                    NU).residual_stress(fine_eps)[f // 2::f, f // 2::f]
-        report(f"{f} x finer surface", fine, centre)
+        report(f"{f} x finer surface", finer_surface_stress(eps, (d1, d1, d3), f), centre)
         print(f"    ({time.time() - start:.0f} s)")
 
 

@@ -36,6 +36,9 @@ import sys
 from pathlib import Path
 
 import numpy as np
+from press_refined_traction import NU as PRESS_NU
+from press_refined_traction import E as PRESS_E
+from press_refined_traction import load_press
 
 from sacflow.kernels.eigenstrain import HalfSpaceEigenstrain
 from sacflow.kernels.traction_stencil import TractionStencil, stencil_kernels
@@ -43,7 +46,6 @@ from sacflow.kernels.traction_stencil import TractionStencil, stencil_kernels
 E_UNIT, NU = 2.6, 0.3  # μ = E / (2 (1 + ν)) = 1: stress per unit eigenstrain, in units of μ
 MU = E_UNIT / (2.0 * (1.0 + NU))
 FINER = (3, 9)  # lateral refinements of the reference grids (odd: coarse centres stay centres)
-PRESS_E = 219e9  # the press's steel (pipelines/dent-from-indentation-press.toml)
 
 
 def quadrature_delta(shape: tuple[int, int, int], spacing: tuple[float, float, float],
@@ -87,7 +89,7 @@ def corrected_field(eps: np.ndarray, spacing: tuple[float, float, float], E: flo
     ``window`` cells laterally of each source (the reach that :func:`reach` prints); Young's
     modulus ``E`` (``Δ`` is proportional to it at a fixed ν). Returns (n1, n2, targets, 6).
     """
-    stencil = TractionStencil(eps.shape[:3], spacing, NU, E / (2.0 * (1.0 + NU)),
+    stencil = TractionStencil(eps.shape[:3], spacing, PRESS_NU, E / (2.0 * (1.0 + PRESS_NU)),
                               sources=sources, targets=targets, window=window, gauss=gauss)
     return stencil.apply(stencil.top(eps))
 
@@ -110,10 +112,9 @@ def press_check(path: Path, sources: int, targets: int, window: int, gauss: int)
     ``path``: an ``.npz`` of ``pipelines/press_run.py`` (stress sampling 1). Prints σ33 on the
     axis and its minimum, per layer, from the operator and from the operator plus ``Δ``.
     """
-    data = np.load(path)
-    eps, x1, x3 = data["eps"], data["x1"], data["x3"]
+    eps, x1, x3 = load_press(path, 0)
     spacing = (float(x1[1] - x1[0]), float(x1[1] - x1[0]), float(x3[1] - x3[0]))
-    stress = HalfSpaceEigenstrain(eps.shape[:3], spacing, PRESS_E, NU).residual_stress(eps)
+    stress = HalfSpaceEigenstrain(eps.shape[:3], spacing, PRESS_E, PRESS_NU).residual_stress(eps)
     delta = corrected_field(eps, spacing, PRESS_E, sources, targets, window, gauss)
     centre = int(np.argmin(np.abs(x1)))
     print(f"{path.name}: dx/dz {spacing[0] / spacing[2]:.2f}; Δ from {sources} source layers on "
@@ -136,14 +137,20 @@ def main(argv: list[str]) -> None:
                         help="RUN.npz of pipelines/press_run.py: apply Δ to its plastic strain")
     parser.add_argument("--sources", type=int, default=2, help="source layers of --press's Δ")
     args = parser.parse_args(argv)
+    if args.window < 1 or args.gauss < 2 or args.layers < 1:
+        parser.error("need --window >= 1, --gauss >= 2 and --layers >= 1")
     if args.press is not None:
         if not args.press.is_file():
             parser.error(f"{args.press} is not a file: run pipelines/press_run.py first")
-        press_check(args.press, args.sources, args.layers, args.window, args.gauss)
+        if args.sources < 1:
+            parser.error("need --sources >= 1")
+        try:
+            press_check(args.press, args.sources, args.layers, args.window, args.gauss)
+        except ValueError as exc:
+            parser.error(str(exc))
         return
-    if not args.ratio > 0 or args.window < 1 or args.gauss < 2 or not (
-            0 <= args.layer < args.layers):
-        parser.error("need RATIO > 0, --window >= 1, --gauss >= 2, 0 <= --layer < --layers")
+    if not args.ratio > 0 or not 0 <= args.layer < args.layers:
+        parser.error("need RATIO > 0 and 0 <= --layer < --layers")
     n = 2 * args.window + 1
     shape, spacing = (n, n, args.layers), (args.ratio, args.ratio, 1.0)
     delta = quadrature_delta(shape, spacing, args.layer, args.gauss)

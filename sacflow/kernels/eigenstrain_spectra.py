@@ -36,6 +36,7 @@ __all__ = [
     "KERNEL_VERSION",
     "MIRROR_SIGN",
     "ODD",
+    "SURFACE_ABOVE",
     "depth_projection",
     "depth_spectra",
     "folded_offsets",
@@ -46,6 +47,9 @@ __all__ = [
 
 #: Sign of each component under the reflection x3 → −x3 (13 and 23 flip).
 MIRROR_SIGN = PARITY[2]
+#: Height above the surface, in layers, at which the surface traction of 1 + 2 is evaluated:
+#: the closed form is one-sided on the first layer's top face, σ33 continuous across it.
+SURFACE_ABOVE = 1e-10
 #: Components even (11 22 33 12) and odd (13 23) under x3 → −x3.
 EVEN, ODD = slice(0, 4), slice(4, 6)
 #: Version of the kernel spectra's formulas and layout: part of their disk-cache key
@@ -266,8 +270,8 @@ def layer_spectra(shape: Sequence[int], spacing: Sequence[float], nu: float, mu:
     half = (L1 // 2 + 1, L2 // 2 + 1)
     layer = np.empty((3, 6, n3, *half))
     # The surface is the top face of the first layer, where the closed form is one-sided;
-    # σ33 is continuous across a face, so take its limit at x3 = −η (η = 1e-10 d3).
-    eta = 1e-10 * d3
+    # σ33 is continuous across a face, so take its limit at x3 = −η.
+    eta = SURFACE_ABOVE * d3
     sigma33 = [(2, d) for d in range(6)]
 
     def layers(first: int, last: int) -> None:

@@ -31,7 +31,8 @@ from collections.abc import Sequence
 import numba
 import numpy as np
 
-from sacflow.kernels.cuboid import PARITY, cuboid_stress_component
+from sacflow.kernels.cuboid import cuboid_stress_component
+from sacflow.kernels.eigenstrain_spectra import MIRROR_SIGN, SURFACE_ABOVE
 from sacflow.kernels.surface import boussinesq_stress
 
 __all__ = ["GAUSS_POINTS", "SOURCE_LAYERS", "TARGET_LAYERS", "TractionStencil",
@@ -52,11 +53,6 @@ WINDOW_DEPTHS = 0.5
 MAX_WINDOW = 8
 #: Gauss–Legendre points per side of a surface cell (16 move ``Δ`` of a shear source by 1.7 %).
 GAUSS_POINTS = 8
-#: Image eigenstrain signs: ε13 and ε23 change sign (Liu & Wang 2005).
-MIRROR_SIGN = PARITY[2]
-#: Height above the surface of the traction's evaluation, in layers: the closed form is
-#: one-sided on a face, σ33 continuous across it (as the operator's set-up takes it).
-ABOVE = 1e-10
 
 
 def window_cells(spacing: Sequence[float], targets: int = TARGET_LAYERS) -> int:
@@ -78,7 +74,7 @@ def surface_traction(y1: np.ndarray, y2: np.ndarray, depth: float, half: Sequenc
     surface, as :func:`sacflow.kernels.eigenstrain_spectra.layer_spectra` takes it.
     """
     h1, h2, h3 = (float(h) for h in half)
-    eta = ABOVE * 2.0 * h3
+    eta = SURFACE_ABOVE * 2.0 * h3
     own = cuboid_stress_component(y1, y2, -depth - eta, h1, h2, h3, nu, mu, source)[..., 2]
     image = cuboid_stress_component(y1, y2, depth - eta, h1, h2, h3, nu, mu, source)[..., 2]
     result: np.ndarray = own + MIRROR_SIGN[source] * image
