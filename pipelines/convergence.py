@@ -100,12 +100,12 @@ SMALLEST_ADVISED_STEP = 0.02
 QUICK = ("grid.nz=8", "load_path.0.increments=2", "load_path.1.increments=1")
 QUICK_CELLS_PER_RADIUS = 8
 #: Quantities printed in the summary (all are in the tables; ``--all`` prints every one).
-PRINTED = ("approach_at_peak_load", "print_depth", "max_plastic_strain",
+PRINTED = ("approach_at_peak_load", "print_depth", "print_depth_refined", "max_plastic_strain",
            "max_plastic_strain_refined", "max_plastic_strain_refined_depth",
            "residual_s11_axis_min", "peak_pressure", "residual_s33_layer1_axis",
            "residual_s33_layer1_extreme", "hydrostatic_layer1_extreme")
 #: Quantities of the error plots.
-PLOTTED = ("approach_at_peak_load", "print_depth", "max_plastic_strain_refined",
+PLOTTED = ("approach_at_peak_load", "print_depth_refined", "max_plastic_strain_refined",
            "residual_s11_axis_min", "peak_pressure")
 
 

@@ -348,6 +348,69 @@ def convergence_check(out: Path) -> dict[str, float]:
     return numbers
 
 
+#: docs/convergence.md's section on the print depth at the axis: tag -> (summary, levels) of
+#: data/ (the study rerun with ``print_depth_refined``, its layers to a fourth level, and the
+#: linear-hardening case's increments with the cell mean).
+REFINED_TABLES = {
+    "refined": ("convergence-refined-summary.csv", "convergence-refined.csv"),
+    "layers4": ("convergence-refined-layers4-summary.csv", "convergence-refined-layers4.csv"),
+    "lincm": ("convergence-linear-cell-mean-increments-summary.csv",
+              "convergence-linear-cell-mean-increments.csv"),
+}
+#: Their quantities: quantity -> key stem.
+REFINED_QUANTITIES = {**CHECKED, "print_depth_refined": "print_depth_refined"}
+#: The columns of a summary row recorded: column -> key suffix.
+REFINED_COLUMNS = {"order": "order", "previous_order": "previous_order", "limit": "limit",
+                   "relative_uncertainty": "uncertainty", "shipped_error": "shipped_error"}
+
+
+def convergence_refined(out: Path) -> dict[str, float]:
+    """The tables of :data:`REFINED_TABLES` and ``data/convergence-refined-check.csv``.
+
+    For each case of :data:`CELL_MEAN_CASES`, sequence and quantity of
+    :data:`REFINED_QUANTITIES`: the summary's :data:`REFINED_COLUMNS` where present
+    (``{tag}_{case}_{sequence}_{stem}_{suffix}``), each level's value and error against the
+    sequence's limit (``..._level{L}``, ``..._level{L}_error``), its change from the level before
+    (``..._level{L}_change``) and its relative difference from the finest level
+    (``..._level{L}_from_finest``); from the check at h = 1/3, each
+    quantity's error against the limit (``refcheck_{case}_{stem}_error``).
+    """
+    import csv
+
+    def rows(name: str) -> list[dict[str, str]]:
+        with open(ROOT / "data" / name, newline="", encoding="utf-8") as f:
+            return list(csv.DictReader(f))
+
+    numbers: dict[str, float] = {}
+    for tag, (summary, levels) in REFINED_TABLES.items():
+        for r in rows(summary):
+            case, stem = CELL_MEAN_CASES.get(r["case"]), REFINED_QUANTITIES.get(r["quantity"])
+            if case is None or stem is None:
+                continue
+            key = f"{tag}_{case}_{r['sequence']}_{stem}"
+            numbers.update({f"{key}_{suffix}": float(r[column])
+                            for column, suffix in REFINED_COLUMNS.items() if r[column]})
+        sequences: dict[str, list[float]] = {}
+        for r in rows(levels):
+            case, stem = CELL_MEAN_CASES.get(r["case"]), REFINED_QUANTITIES.get(r["quantity"])
+            if case is None or stem is None:
+                continue
+            key = f"{tag}_{case}_{r['sequence']}_{stem}_level"
+            numbers[f"{key}{r['level']}"] = float(r["value"])
+            if r["relative_error"]:
+                numbers[f"{key}{r['level']}_error"] = float(r["relative_error"])
+            sequences.setdefault(key, []).append(float(r["value"]))
+        for key, values in sequences.items():
+            for level in range(1, len(values)):
+                numbers[f"{key}{level}_change"] = values[level] - values[level - 1]
+                numbers[f"{key}{level - 1}_from_finest"] = values[level - 1] / values[-1] - 1.0
+    for r in rows("convergence-refined-check.csv"):
+        case, stem = CELL_MEAN_CASES.get(r["case"]), REFINED_QUANTITIES.get(r["quantity"])
+        if case is not None and stem is not None:
+            numbers[f"refcheck_{case}_{stem}_error"] = float(r["relative_error"])
+    return numbers
+
+
 #: The groups of this module: name -> (speed, function of the output folder).
 GROUPS = {
     "own_hardening_checks": ("fast", own_hardening_checks),
@@ -357,6 +420,7 @@ GROUPS = {
     "convergence_cell_mean": ("fast", convergence_cell_mean),
     "convergence_cell_mean_together": ("fast", convergence_cell_mean_together),
     "convergence_check": ("fast", convergence_check),
+    "convergence_refined": ("fast", convergence_refined),
 }
 
 

@@ -189,9 +189,14 @@ def s33_depth(x3):
     return -50e6 * np.exp(-x3 / 1e-6)
 
 
-def indentation_run(path: Path, case: Case) -> tuple[xr.Dataset, GridCoords]:
-    """Load to 0.19 N in 2 steps, unload in 2; fields f(x3) · (1 + x1/L + x2/L)."""
-    coords = make_coords(15, 15, 1e-6, (np.arange(6) + 0.5) * 0.5e-6)
+def indentation_run(
+    path: Path, case: Case, cells: int = 15, paraboloid: bool = False
+) -> tuple[xr.Dataset, GridCoords]:
+    """Load to 0.19 N in 2 steps, unload in 2; fields f(x3) · (1 + x1/L + x2/L).
+
+    The print is an 80 nm deep Gaussian, or with ``paraboloid`` 80 nm (1 − r²/(6 µm)²).
+    """
+    coords = make_coords(cells, cells, 1e-6, (np.arange(6) + 0.5) * 0.5e-6)
     x1, x2, x3 = mesh(coords)
     lateral = 1 + x1 / L + x2 / L
     r2 = coords.x1[:, None] ** 2 + coords.x2[None, :] ** 2
@@ -204,7 +209,8 @@ def indentation_run(path: Path, case: Case) -> tuple[xr.Dataset, GridCoords]:
             "residual_stress": factor
             * tensor(coords, s11=s11_depth(x3) * lateral, s33=s33_depth(x3) * lateral),
         }
-        surface = {"residual_displacement": factor * 80e-9 * np.exp(-r2 / (3e-6) ** 2)}
+        shape = 1.0 - r2 / (6e-6) ** 2 if paraboloid else np.exp(-r2 / (3e-6) ** 2)
+        surface = {"residual_displacement": factor * 80e-9 * shape}
         states.append(state(k, load, segment=seg, surface=surface, volume=volume))
     return write_run(path, case, coords, states), coords
 
@@ -243,6 +249,7 @@ def test_indentation_profiles_known_fields(tmp_path, nano_case):
         rtol=1e-12,
     )
     assert_allclose(float(result.print_depth), 80e-9, rtol=1e-12)
+    assert_allclose(float(result.print_depth_refined), 80e-9, rtol=1e-12)
     assert_allclose(float(result.residual_stress_11_first_layer), s11_depth(x3[0]), rtol=1e-10)
     assert_allclose(float(result.residual_stress_33_first_layer), s33_depth(x3[0]), rtol=1e-10)
     assert_allclose(float(result.residual_stress_11_axis_min), s11_depth(x3).min(), rtol=1e-10)
@@ -251,6 +258,15 @@ def test_indentation_profiles_known_fields(tmp_path, nano_case):
     assert_allclose(float(result.residual_stress_33_axis_min), s33_depth(x3).min(), rtol=1e-10)
     assert_allclose(float(result.residual_stress_33_axis_max), s33_depth(x3).max(), rtol=1e-10)
     assert_written(result, tmp_path, "indentation")
+
+
+def test_print_depth_refined_finds_the_axis_between_cell_centres(tmp_path, nano_case):
+    # 16 cells: the axis lies on the corner of four cells, half a cell from their centres,
+    # where the print is 80 nm (1 - 0.5 µm² / 36 µm²) deep; a paraboloid is refined exactly.
+    ds, _ = indentation_run(tmp_path / "even.nc", nano_case, cells=16, paraboloid=True)
+    result = indentation(ds, offsets=(0.0,))
+    assert_allclose(float(result.print_depth), 80e-9 * (1 - 0.5 / 36), rtol=1e-12)
+    assert_allclose(float(result.print_depth_refined), 80e-9, rtol=1e-12)
 
 
 # --------------------------------------------------------------------------- 3. load_approach

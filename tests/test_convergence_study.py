@@ -231,7 +231,7 @@ def test_quick_pipeline_end_to_end(tmp_path, capsys):
     assert tuple(levels[0]) == LEVEL_COLUMNS
     assert tuple(rows[0]) == SUMMARY_COLUMNS
     quantities = {r["quantity"] for r in rows}
-    assert {"approach_at_peak_load", "print_depth", "max_plastic_strain",
+    assert {"approach_at_peak_load", "print_depth", "print_depth_refined", "max_plastic_strain",
             "max_plastic_strain_refined", "max_plastic_strain_refined_depth",
             "residual_s11_axis_min", "residual_s11_axis_at_1a", "peak_pressure",
             "residual_s33_layer1_axis", "hydrostatic_layer1_extreme"} <= quantities
@@ -244,6 +244,12 @@ def test_quick_pipeline_end_to_end(tmp_path, capsys):
     print_depth = [r for r in rows if r["quantity"] == "print_depth"]
     assert all(r["behaviour"] in {"monotone", "oscillating", "diverging"} for r in print_depth)
     assert all(float(r["shipped_value"]) > 0.0 for r in print_depth)  # a print, in metres
+    # 32 cells: the axis is a cell corner, and the print is deeper there than at any centre
+    refined = {(r["sequence"], r["level"]): float(r["value"]) for r in levels
+               if r["quantity"] == "print_depth_refined"}
+    for r in levels:
+        if r["quantity"] == "print_depth":
+            assert refined[r["sequence"], r["level"]] > float(r["value"])
     assert sorted(p.name for p in (tmp_path / "plots").iterdir()) == [
         "nanoindentation-190mN-increments-s11.png", "nanoindentation-190mN-increments.png",
         "nanoindentation-190mN-layers-s11.png", "nanoindentation-190mN-layers.png"]

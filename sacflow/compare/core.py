@@ -128,6 +128,9 @@ RESULTS: dict[str, Meta] = {
     ),
     "max_plastic_strain_refined_depth": Meta("m", "depth of the refined maximum"),
     "print_depth": Meta("m", "residual print depth: max residual displacement (last step)"),
+    "print_depth_refined": Meta(
+        "m", "residual print depth refined below the cell size (refined_peak): at the axis"
+    ),
     "residual_stress_11_first_layer": Meta("Pa", "residual σ11 on the axis, first layer"),
     "residual_stress_33_first_layer": Meta("Pa", "residual σ33 on the axis, first layer"),
     "residual_stress_11_axis_min": Meta("Pa", "minimum residual σ11 on the axis"),

@@ -111,7 +111,9 @@ def indentation(
         ``equivalent_plastic_strain``, ``residual_stress_11``, ``residual_stress_33`` on
         (``when`` = max_load, last; ``offset``; ``x3``); summary numbers at the last step:
         ``max_plastic_strain`` and its position (``_x1``, ``_x2``, ``_depth``) over the whole
-        body, ``print_depth`` (max residual displacement), on the axis
+        body, ``print_depth`` (max residual displacement) and ``print_depth_refined`` (the
+        same refined below the cell size: with an even number of cells the axis lies on a
+        cell corner, half a cell from the nearest centres), on the axis
         ``residual_stress_11_first_layer``, ``residual_stress_33_first_layer``,
         ``residual_stress_11_axis_min`` (and ``_depth``), ``residual_stress_11_axis_max``,
         ``residual_stress_33_axis_min``, ``residual_stress_33_axis_max``.
@@ -151,6 +153,10 @@ def indentation(
         field.values, [np.asarray(field[d].values, dtype=float) for d in ("x1", "x2", "x3")]
     )
     surface = step_index(ds, "residual_displacement", "last", stage)
+    residual = ds["residual_displacement"].isel(step=surface).transpose("x1", "x2")
+    print_refined, _ = refined_peak(
+        residual.values, [np.asarray(residual[d].values, dtype=float) for d in ("x1", "x2")]
+    )
     on_axis = {"x1": c1, "x2": c2}
     s11 = np.asarray(at(last, "residual_stress", "11", on_axis).values, dtype=float)
     s33 = np.asarray(at(last, "residual_stress", "33", on_axis).values, dtype=float)
@@ -166,7 +172,8 @@ def indentation(
         max_plastic_strain_depth=where["x3"],
         max_plastic_strain_refined=refined,
         max_plastic_strain_refined_depth=refined_at[2],
-        print_depth=float(np.nanmax(ds["residual_displacement"].isel(step=surface).values)),
+        print_depth=float(np.nanmax(residual.values)),
+        print_depth_refined=print_refined,
         residual_stress_11_first_layer=float(s11[0]),
         residual_stress_33_first_layer=float(s33[0]),
         residual_stress_11_axis_min=float(np.nanmin(s11)) if finite else np.nan,

@@ -282,9 +282,13 @@ def measure(sim: Simulation, states: Sequence[State], contact_radius: float
     -------
     quantities : dict
         Name -> value (SI): ``approach_at_peak_load``, ``print_depth`` (largest residual
-        surface displacement at the end), ``peak_pressure`` (over the run),
-        ``max_plastic_strain`` (cell maximum) and its ``_depth``, ``max_plastic_strain_refined``
-        (:func:`~sacflow.compare.fields.refined_peak`) and its ``_depth``,
+        surface displacement of a cell at the end), ``print_depth_refined`` (the same refined
+        below the cell size by :func:`~sacflow.compare.fields.refined_peak`: with an even
+        number of cells the axis lies on a cell corner, and the largest cell value is the
+        print's depth half a cell off the axis along each direction), ``peak_pressure``
+        (over the run), ``max_plastic_strain`` (cell maximum) and its ``_depth``,
+        ``max_plastic_strain_refined`` (:func:`~sacflow.compare.fields.refined_peak`) and its
+        ``_depth``,
         ``residual_s11_axis_min`` and the axis profile at :data:`PROFILE_DEPTHS`
         (``residual_s11_axis_at_0.5a``...), and per top layer L (:data:`TOP_LAYERS`)
         ``residual_s33_layerL_axis`` / ``_extreme`` (signed value of largest magnitude over the
@@ -301,10 +305,13 @@ def measure(sim: Simulation, states: Sequence[State], contact_radius: float
     stress = np.asarray(sim.residual_stress, dtype=float)
     cell = np.unravel_index(int(np.nanargmax(strain)), strain.shape)
     refined, where = refined_peak(strain, (x1, x2, x3))
+    residual = np.asarray(sim.residual_displacement, dtype=float)
+    print_refined, _ = refined_peak(residual, (x1, x2))
     axis_s11 = stress[i, j, :, I11]
     out = {
         "approach_at_peak_load": float(states[top].approach),
-        "print_depth": float(np.max(sim.residual_displacement)),
+        "print_depth": float(np.max(residual)),
+        "print_depth_refined": float(print_refined),
         "peak_pressure": float(max(s.max_pressure for s in states)),
         "max_plastic_strain": float(strain[cell]),
         "max_plastic_strain_depth": float(x3[cell[2]]),
