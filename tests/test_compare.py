@@ -201,13 +201,16 @@ def indentation_run(
     lateral = 1 + x1 / L + x2 / L
     r2 = coords.x1[:, None] ** 2 + coords.x2[None, :] ** 2
     states = []
+    # with ``paraboloid``, σ11 is a bowl: -400 MPa (1 - r²/(6 µm)²) (1 - (x3 - 1.3 µm)²/(2 µm)²),
+    # quadratic along each axis, deepest on the axis at 1.3 µm, between layer centres
+    s11 = (-400e6 * (1 - (x1**2 + x2**2) / (6e-6) ** 2) * (1 - ((x3 - 1.3e-6) / 2e-6) ** 2)
+           if paraboloid else s11_depth(x3) * lateral)
     for k, (load, seg, factor) in enumerate(
         [(0.095, 0, 0.5), (0.19, 0, 0.9), (0.095, 1, 1.0), (0.0, 1, 1.0)]
     ):
         volume = {
             "equivalent_plastic_strain": factor * eps_depth(x3) * lateral,
-            "residual_stress": factor
-            * tensor(coords, s11=s11_depth(x3) * lateral, s33=s33_depth(x3) * lateral),
+            "residual_stress": factor * tensor(coords, s11=s11, s33=s33_depth(x3) * lateral),
         }
         shape = 1.0 - r2 / (6e-6) ** 2 if paraboloid else np.exp(-r2 / (3e-6) ** 2)
         surface = {"residual_displacement": factor * 80e-9 * shape}
@@ -254,6 +257,8 @@ def test_indentation_profiles_known_fields(tmp_path, nano_case):
     assert_allclose(float(result.residual_stress_33_first_layer), s33_depth(x3[0]), rtol=1e-10)
     assert_allclose(float(result.residual_stress_11_axis_min), s11_depth(x3).min(), rtol=1e-10)
     assert_allclose(float(result.residual_stress_11_axis_min_depth), x3[0], rtol=1e-12)
+    assert_allclose(float(result.residual_stress_11_axis_min_refined), s11_depth(x3).min(),
+                    rtol=1e-10)
     assert_allclose(float(result.residual_stress_11_axis_max), s11_depth(x3).max(), rtol=1e-10)
     assert_allclose(float(result.residual_stress_33_axis_min), s33_depth(x3).min(), rtol=1e-10)
     assert_allclose(float(result.residual_stress_33_axis_max), s33_depth(x3).max(), rtol=1e-10)
@@ -267,6 +272,32 @@ def test_print_depth_refined_finds_the_axis_between_cell_centres(tmp_path, nano_
     result = indentation(ds, offsets=(0.0,))
     assert_allclose(float(result.print_depth), 80e-9 * (1 - 0.5 / 36), rtol=1e-12)
     assert_allclose(float(result.print_depth_refined), 80e-9, rtol=1e-12)
+    # σ11's bowl: on the axis at 1.3 µm it is -400 MPa; the linear reading at the corner and
+    # the layer centres misses that, the quadratic one to the axis and the parabola in depth not
+    assert float(result.residual_stress_11_axis_min) > -400e6 * (1 - 0.25 / 36)
+    assert_allclose(float(result.residual_stress_11_axis_min_refined), -400e6, rtol=1e-12)
+
+
+def test_quadratic_at_is_exact_for_quadratics_in_each_coordinate():
+    from sacflow.compare.fields import quadratic_at
+
+    x = np.arange(8) + 0.5 - 4.0
+    y = 0.5 * (np.arange(6) + 0.5)
+    z = np.linspace(0.1, 2.0, 5)
+    X, Y, Z = np.meshgrid(x, y, z, indexing="ij")
+
+    def f(a, b, c):
+        return 3 + 0.2 * a**2 - 0.1 * b**2 + 0.3 * a * b + 0.5 * a + c**2 + a**2 * b**2
+
+    values = f(X, Y, Z)
+    # the corner of four cells (the axis of an even grid), an edge, outside by half a cell
+    for point in ((0.0, 1.5), (3.9, 0.1), (-4.0, 3.0)):
+        assert_allclose(quadratic_at(values, (x, y), point), f(*point, z), rtol=1e-13)
+    assert_allclose(quadratic_at(values, (x, y, z), (0.0, 1.5, 1.3)), f(0.0, 1.5, 1.3),
+                    rtol=1e-13)
+    # a cubic is not exact: the rule is of order h³, not a global fit
+    cubic = X**3
+    assert abs(float(quadratic_at(cubic, (x,), (0.0,))[0, 0])) > 0.0
 
 
 # --------------------------------------------------------------------------- 3. load_approach

@@ -233,7 +233,8 @@ def test_quick_pipeline_end_to_end(tmp_path, capsys):
     quantities = {r["quantity"] for r in rows}
     assert {"approach_at_peak_load", "print_depth", "print_depth_refined", "max_plastic_strain",
             "max_plastic_strain_refined", "max_plastic_strain_refined_depth",
-            "residual_s11_axis_min", "residual_s11_axis_at_1a", "peak_pressure",
+            "residual_s11_axis_min", "residual_s11_axis_at_1a", "residual_s11_axis_min_refined",
+            "residual_s11_axis_refined_at_1a", "peak_pressure",
             "residual_s33_layer1_axis", "hydrostatic_layer1_extreme"} <= quantities
     assert len(levels) == 3 * len(rows)  # three levels per (sequence, quantity)
     assert len(rows) == 2 * len(quantities)

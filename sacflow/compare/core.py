@@ -135,6 +135,9 @@ RESULTS: dict[str, Meta] = {
     "residual_stress_33_first_layer": Meta("Pa", "residual σ33 on the axis, first layer"),
     "residual_stress_11_axis_min": Meta("Pa", "minimum residual σ11 on the axis"),
     "residual_stress_11_axis_min_depth": Meta("m", "depth of the minimum residual σ11 on the axis"),
+    "residual_stress_11_axis_min_refined": Meta(
+        "Pa", "minimum residual σ11 on the axis, quadratic to the axis and refined in depth"
+    ),
     "residual_stress_11_axis_max": Meta("Pa", "maximum residual σ11 on the axis"),
     "residual_stress_33_axis_min": Meta("Pa", "minimum residual σ33 on the axis"),
     "residual_stress_33_axis_max": Meta("Pa", "maximum residual σ33 on the axis"),

@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from sacflow.compare.fields import refined_peak
+from sacflow.compare.fields import quadratic_at, refined_peak
 from sacflow.config.schema import Case, Elastic
 from sacflow.config.solver_inputs import solver_inputs
 from sacflow.errors import SacflowError
@@ -290,7 +290,12 @@ def measure(sim: Simulation, states: Sequence[State], contact_radius: float
         ``max_plastic_strain_refined`` (:func:`~sacflow.compare.fields.refined_peak`) and its
         ``_depth``,
         ``residual_s11_axis_min`` and the axis profile at :data:`PROFILE_DEPTHS`
-        (``residual_s11_axis_at_0.5a``...), and per top layer L (:data:`TOP_LAYERS`)
+        (``residual_s11_axis_at_0.5a``...: the cell column nearest the axis, linear between
+        layer centres), the same on the axis itself (``residual_s11_axis_min_refined`` and
+        ``residual_s11_axis_refined_at_0.5a``...: the column interpolated to the load axis
+        by :func:`~sacflow.compare.fields.quadratic_at`, its minimum refined by a parabola
+        through the layer centres, the profile quadratic between them), and per top layer L
+        (:data:`TOP_LAYERS`)
         ``residual_s33_layerL_axis`` / ``_extreme`` (signed value of largest magnitude over the
         layer), ``hydrostatic_layerL_axis`` / ``_extreme``, ``residual_shear_layerL_max``
         (largest √(σ13² + σ23²), which must vanish at the traction-free surface too).
@@ -319,11 +324,16 @@ def measure(sim: Simulation, states: Sequence[State], contact_radius: float
         "max_plastic_strain_refined_depth": float(where[2]),
         "residual_s11_axis_min": float(np.nanmin(axis_s11)),
     }
+    load_point = (states[top].load_x1, states[top].load_x2)
+    on_axis = quadratic_at(stress[..., I11], (x1, x2), load_point)
+    out["residual_s11_axis_min_refined"] = -refined_peak(-on_axis, (x3,))[0]
     for depth in PROFILE_DEPTHS:
         z = depth * contact_radius
         inside = x3[0] <= z <= x3[-1]
         out[f"residual_s11_axis_at_{depth:g}a"] = (float(np.interp(z, x3, axis_s11)) if inside
                                                    else math.nan)
+        out[f"residual_s11_axis_refined_at_{depth:g}a"] = (
+            float(quadratic_at(on_axis, (x3,), (z,))) if inside else math.nan)
     out.update(top_layer_quantities(stress, i, j))
     return out, {"x3": [float(z) for z in x3], "residual_s11": [float(s) for s in axis_s11]}
 
