@@ -339,9 +339,15 @@ REFINED_TABLES = {
     "layers4": ("convergence-refined-layers4-summary.csv", "convergence-refined-layers4.csv"),
     "lincm": ("convergence-linear-cell-mean-increments-summary.csv",
               "convergence-linear-cell-mean-increments.csv"),
+    "axis": ("convergence-axis-summary.csv", "convergence-axis.csv"),
 }
 #: Their quantities: quantity -> key stem.
-REFINED_QUANTITIES = {**CHECKED, "print_depth_refined": "print_depth_refined"}
+REFINED_QUANTITIES = {**CHECKED, "print_depth_refined": "print_depth_refined",
+                      "max_plastic_strain_refined_depth": "max_eqps_refined_depth",
+                      "residual_s11_axis_min_refined": "s11_min_refined",
+                      "residual_s11_axis_at_1a": "s11_1a",
+                      "residual_s11_axis_refined_at_0.5a": "s11_05a_refined",
+                      "residual_s11_axis_refined_at_1a": "s11_1a_refined"}
 #: The columns of a summary row recorded: column -> key suffix.
 REFINED_COLUMNS = {"order": "order", "previous_order": "previous_order", "limit": "limit",
                    "relative_uncertainty": "uncertainty", "shipped_error": "shipped_error"}
@@ -355,8 +361,9 @@ def convergence_refined(out: Path) -> dict[str, float]:
     (``{tag}_{case}_{sequence}_{stem}_{suffix}``), each level's value and error against the
     sequence's limit (``..._level{L}``, ``..._level{L}_error``), its change from the level before
     (``..._level{L}_change``) and its relative difference from the finest level
-    (``..._level{L}_from_finest``); from the check at h = 1/3, each
-    quantity's error against the limit (``refcheck_{case}_{stem}_error``).
+    (``..._level{L}_from_finest``; as the study's relative errors, (value − finest) / |finest|,
+    ``..._level{L}_offset_from_finest`` and ``..._shipped_from_finest``); from the check at
+    h = 1/3, each quantity's error against the limit (``refcheck_{case}_{stem}_error``).
     """
     numbers: dict[str, float] = {}
     for tag, (summary, levels) in REFINED_TABLES.items():
@@ -367,6 +374,10 @@ def convergence_refined(out: Path) -> dict[str, float]:
             key = f"{tag}_{case}_{r['sequence']}_{stem}"
             numbers.update({f"{key}_{suffix}": float(r[column])
                             for column, suffix in REFINED_COLUMNS.items() if r[column]})
+            if r["shipped_value"] and r["finest_value"]:
+                finest = float(r["finest_value"])
+                numbers[f"{key}_shipped_from_finest"] = (float(r["shipped_value"])
+                                                         - finest) / abs(finest)
         sequences: dict[str, list[float]] = {}
         for r in data_rows(levels):
             case, stem = CELL_MEAN_CASES.get(r["case"]), REFINED_QUANTITIES.get(r["quantity"])
@@ -381,6 +392,8 @@ def convergence_refined(out: Path) -> dict[str, float]:
             for level in range(1, len(values)):
                 numbers[f"{key}{level}_change"] = values[level] - values[level - 1]
                 numbers[f"{key}{level - 1}_from_finest"] = values[level - 1] / values[-1] - 1.0
+                numbers[f"{key}{level - 1}_offset_from_finest"] = (
+                    (values[level - 1] - values[-1]) / abs(values[-1]))
     for r in data_rows("convergence-refined-check.csv"):
         case, stem = CELL_MEAN_CASES.get(r["case"]), REFINED_QUANTITIES.get(r["quantity"])
         if case is not None and stem is not None:

@@ -1,13 +1,14 @@
 """Recompute the numbers that README.md and docs/*.md quote from computations.
 
-    python pipelines/record_doc_numbers.py [--slow] [--out DIR] [--write]
+    python pipelines/record_doc_numbers.py [--slow | --groups NAME,...] [--out DIR] [--write]
 
 ``data/doc_numbers.csv`` lists each quoted number: the file, the text that quotes it, the number
 as printed, the value recorded (SI units), its tolerance, how it is obtained (a ``group`` of this
 script: one computation may give several numbers) and the grid. This script recomputes the
 groups and prints one JSON line per row: recorded, recomputed, whether they agree within the
 row's tolerance. ``--slow`` adds the groups that run shipped cases at their shipped grids
-(minutes each); ``--out`` keeps their runs (default: a temporary folder; finished runs are
+(minutes each); ``--groups`` recomputes only the named groups (after a change of one case);
+``--out`` keeps their runs (default: a temporary folder; finished runs are
 reused); ``--write`` stores the recomputed values in the table (review its diff, then make the
 docs quote them: ``tests/test_doc_numbers.py`` fails while a quoted number and its row disagree).
 
@@ -419,13 +420,19 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--slow", action="store_true", help="also the shipped-grid runs")
     parser.add_argument("--out", type=Path, default=None, help="folder for the runs")
     parser.add_argument("--write", action="store_true", help="store the values in the table")
+    parser.add_argument("--groups", default=None,
+                        help="only these groups, comma-separated (slow ones included)")
     args = parser.parse_args(argv)
+    chosen = None if args.groups is None else args.groups.split(",")
+    unknown = sorted(set(chosen or ()) - set(GROUPS))
+    if unknown:
+        parser.error(f"unknown group(s) {', '.join(unknown)}: choose from {', '.join(GROUPS)}")
     rows = read_table()
     with tempfile.TemporaryDirectory() as tmp:
         out = args.out or Path(tmp)
         new: dict[str, float] = {}
         for group, (speed, _) in GROUPS.items():
-            if speed == "fast" or args.slow:
+            if (group in chosen) if chosen is not None else (speed == "fast" or args.slow):
                 new.update(recompute(group, out))
     for row in rows:
         if row["key"] in new:

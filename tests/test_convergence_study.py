@@ -195,7 +195,7 @@ def test_a_checked_run_is_compared_with_the_prediction_at_its_step():
 def test_shipped_discretisation_makes_the_automatic_depth_explicit():
     case = base_case(STUDY_CASES["nanoindentation-650mN"])
     shipped = shipped_discretisation(case)
-    assert (shipped.nx, shipped.nz, shipped.increments) == (64, 24, (10, 5))
+    assert (shipped.nx, shipped.nz, shipped.increments) == (64, 24, (20, 10))
     assert case.grid.depth is None and shipped.depth > case.hertz().a
     perfect = base_case(STUDY_CASES["nanoindentation-perfect-650mN"])
     assert perfect.body.hardening.law == "perfectly_plastic"
@@ -213,6 +213,27 @@ def load_pipeline():
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
+
+
+def test_the_ladders_keep_their_base_while_the_configs_ship_twice_the_increments():
+    # the nano-indentations ship 20 + 10; the study's levels stay around 10 + 5, so that the
+    # shipped discretisation is the middle level of `increments` and `together`
+    pipeline = load_pipeline()
+    base, shipped, sequences, _ = pipeline.case_setup(
+        pipeline.parse(["--cases", "nanoindentation-650mN"]), "nanoindentation-650mN")
+    assert (base.increments, shipped.increments) == ((10, 5), (20, 10))
+    assert base.nx == shipped.nx and base.nz == shipped.nz and base.depth == shipped.depth
+    for name in ("increments", "together"):
+        assert sequences[name].levels(base)[1] == shipped
+    assert [level.increments for level in sequences["lateral"].levels(base)] == [(10, 5)] * 3
+    # an override of the load path (here --quick's) is the base itself
+    base, shipped, _, _ = pipeline.case_setup(
+        pipeline.parse(["--cases", "nanoindentation-650mN", "--quick"]), "nanoindentation-650mN")
+    assert base == shipped and base.increments == (2, 1)
+    # the press has no other base
+    base, shipped, _, _ = pipeline.case_setup(
+        pipeline.parse(["--cases", "dent-from-indentation-press"]), "dent-from-indentation-press")
+    assert base == shipped
 
 
 def read(path: Path) -> list[dict[str, str]]:
