@@ -19,9 +19,9 @@ writes
 * with ``--plots DIR``, the relative error against h (log-log) of each case and sequence, and
   the residual σ11 axis profile of its levels.
 
-The levels of each sequence lie around the study's base discretisation: the shipped one, with
-the increments of :data:`BASE_INCREMENTS` for the nano-indentations (which ship 20 + 10, the
-middle level of ``increments`` and ``together``, while the ladders keep 10 + 5 at their base).
+The levels of each sequence lie around the study's base discretisation
+(:func:`sacflow.studies.convergence.study_base`): the shipped one, with 10 + 5 increments for
+the nano-indentations (which ship 20 + 10, the middle level of ``increments`` and ``together``).
 The shipped error is always that of the shipped discretisation, run as a level of its own when
 it is not one of the sequence's.
 
@@ -59,7 +59,6 @@ import sys
 import tempfile
 import time
 from collections.abc import Sequence
-from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -77,6 +76,7 @@ from sacflow.studies.convergence import (
     sequences_for,
     shipped_discretisation,
     source_fingerprint,
+    study_base,
 )
 from sacflow.studies.convergence_table import (
     CHECK_COLUMNS,
@@ -106,15 +106,6 @@ SMALLEST_ADVISED_STEP = 0.02
 #: lateral level keeps the 8 cells across the contact diameter a case needs).
 QUICK = ("grid.nz=8", "load_path.0.increments=2", "load_path.1.increments=1")
 QUICK_CELLS_PER_RADIUS = 8
-#: The study's base increments, the anchor of its ladders, where the shipped config's differ.
-#: The nano-indentation configs ship 20 + 10 increments (issue #32: the middle level of the
-#: ``increments`` and ``together`` sequences, which reach half a percent there); the ladders
-#: stay those of the tables recorded with 10 + 5, and each table's shipped error is that of
-#: the shipped configs. An override of the load path (``--quick`` too) replaces them.
-BASE_INCREMENTS: dict[str, tuple[int, ...]] = {
-    name: (10, 5) for name in ("nanoindentation-190mN", "nanoindentation-650mN",
-                               "nanoindentation-linear-650mN", "nanoindentation-perfect-650mN")
-}
 #: Quantities printed in the summary (all are in the tables; ``--all`` prints every one).
 PRINTED = ("approach_at_peak_load", "print_depth", "print_depth_refined", "max_plastic_strain",
            "max_plastic_strain_refined", "max_plastic_strain_refined_depth",
@@ -238,19 +229,12 @@ def study(args: argparse.Namespace) -> int:
 
 def case_setup(args: argparse.Namespace, name: str
                ) -> tuple[Discretisation, Discretisation, dict[str, Refinement], list[str]]:
-    """The study's base and shipped discretisations, the sequences and the overrides of ``name``.
-
-    The base is the shipped discretisation with the increments of :data:`BASE_INCREMENTS`
-    where that names the case and no override (``--quick`` included) sets the load path.
-    """
+    """The study's base and shipped discretisations, the sequences and the overrides of ``name``."""
     study_case = STUDY_CASES[name]
     overrides = [*(quick_overrides(study_case) if args.quick else ()), *args.overrides]
     case = base_case(study_case, overrides)
     shipped = shipped_discretisation(case)
-    base = shipped
-    if name in BASE_INCREMENTS and not any(o.startswith("load_path") for o in overrides):
-        base = replace(shipped, increments=BASE_INCREMENTS[name])
-    return base, shipped, sequences_for(case), overrides
+    return study_base(study_case, shipped, overrides), shipped, sequences_for(case), overrides
 
 
 def check(args: argparse.Namespace) -> int:

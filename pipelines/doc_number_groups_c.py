@@ -360,11 +360,13 @@ def convergence_refined(out: Path) -> dict[str, float]:
     :data:`REFINED_QUANTITIES`: the summary's :data:`REFINED_COLUMNS` where present
     (``{tag}_{case}_{sequence}_{stem}_{suffix}``), each level's value and error against the
     sequence's limit (``..._level{L}``, ``..._level{L}_error``), its change from the level before
-    (``..._level{L}_change``) and its relative difference from the finest level
-    (``..._level{L}_from_finest``; as the study's relative errors, (value − finest) / |finest|,
-    ``..._level{L}_offset_from_finest`` and ``..._shipped_from_finest``); from the check at
-    h = 1/3, each quantity's error against the limit (``refcheck_{case}_{stem}_error``).
+    (``..._level{L}_change``) and its difference from the finest level, relative as the study's
+    errors, (value − finest) / |finest| (``..._level{L}_from_finest``, and
+    ``..._shipped_from_finest`` for the shipped value); from the check at h = 1/3, each
+    quantity's error against the limit (``refcheck_{case}_{stem}_error``).
     """
+    from sacflow.studies.richardson import relative_errors
+
     numbers: dict[str, float] = {}
     for tag, (summary, levels) in REFINED_TABLES.items():
         for r in data_rows(summary):
@@ -375,9 +377,8 @@ def convergence_refined(out: Path) -> dict[str, float]:
             numbers.update({f"{key}_{suffix}": float(r[column])
                             for column, suffix in REFINED_COLUMNS.items() if r[column]})
             if r["shipped_value"] and r["finest_value"]:
-                finest = float(r["finest_value"])
-                numbers[f"{key}_shipped_from_finest"] = (float(r["shipped_value"])
-                                                         - finest) / abs(finest)
+                numbers[f"{key}_shipped_from_finest"] = relative_errors(
+                    [float(r["shipped_value"])], float(r["finest_value"]))[0]
         sequences: dict[str, list[float]] = {}
         for r in data_rows(levels):
             case, stem = CELL_MEAN_CASES.get(r["case"]), REFINED_QUANTITIES.get(r["quantity"])
@@ -389,11 +390,10 @@ def convergence_refined(out: Path) -> dict[str, float]:
                 numbers[f"{key}{r['level']}_error"] = float(r["relative_error"])
             sequences.setdefault(key, []).append(float(r["value"]))
         for key, values in sequences.items():
+            from_finest = relative_errors(values, values[-1])
             for level in range(1, len(values)):
                 numbers[f"{key}{level}_change"] = values[level] - values[level - 1]
-                numbers[f"{key}{level - 1}_from_finest"] = values[level - 1] / values[-1] - 1.0
-                numbers[f"{key}{level - 1}_offset_from_finest"] = (
-                    (values[level - 1] - values[-1]) / abs(values[-1]))
+                numbers[f"{key}{level - 1}_from_finest"] = from_finest[level - 1]
     for r in data_rows("convergence-refined-check.csv"):
         case, stem = CELL_MEAN_CASES.get(r["case"]), REFINED_QUANTITIES.get(r["quantity"])
         if case is not None and stem is not None:

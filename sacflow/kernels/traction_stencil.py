@@ -34,6 +34,7 @@ import numpy as np
 from sacflow.kernels.cuboid import cuboid_stress_component
 from sacflow.kernels.eigenstrain_spectra import MIRROR_SIGN, SURFACE_ABOVE
 from sacflow.kernels.surface import boussinesq_stress
+from sacflow.machine.threads import over_ranges
 
 __all__ = ["GAUSS_POINTS", "SOURCE_LAYERS", "TARGET_LAYERS", "TractionStencil",
            "stencil_kernels", "surface_traction", "window_cells"]
@@ -201,8 +202,6 @@ class TractionStencil:
 
     def apply(self, top: np.ndarray) -> np.ndarray:
         """``Δ`` [Pa] on the first :attr:`targets` layers, (n1, n2, targets, 6), of ``top``."""
-        from sacflow.machine.threads import over_ranges
-
         n1, n2 = top.shape[:2]
         out = np.empty((n1, n2, self.targets * 6))
         active = np.ascontiguousarray((top != 0.0).any(axis=(2, 3)))

@@ -49,6 +49,7 @@ __all__ = [
     "measure",
     "shipped_discretisation",
     "source_fingerprint",
+    "study_base",
     "top_layer_quantities",
     "unit_of",
 ]
@@ -79,22 +80,33 @@ class StudyCase:
 
     ``perfectly_plastic`` replaces the hardening law by perfect plasticity at the law's own
     initial yield stress (``body.hardening`` with ``law = "perfectly_plastic"``).
+    ``base_increments``, when given, are the increments of the study's base level (the anchor
+    of its ladders, :func:`study_base`) in place of the case file's: the nano-indentations ship
+    20 + 10 since issue #32, the middle level of the ``increments`` and ``together``
+    sequences, while their ladders stay those of the tables recorded with 10 + 5.
     """
 
     name: str
     path: Path
     overrides: tuple[str, ...] = ()
     perfectly_plastic: bool = False
+    base_increments: tuple[int, ...] | None = None
 
 
+#: The ladders' base increments of the nano-indentations (load + unload).
+NANO_BASE_INCREMENTS = (10, 5)
 STUDY_CASES: dict[str, StudyCase] = {
     case.name: case for case in (
-        StudyCase("nanoindentation-190mN", ROOT / "configs" / "nanoindentation-190mN.toml"),
-        StudyCase("nanoindentation-650mN", ROOT / "configs" / "nanoindentation-650mN.toml"),
+        StudyCase("nanoindentation-190mN", ROOT / "configs" / "nanoindentation-190mN.toml",
+                  base_increments=NANO_BASE_INCREMENTS),
+        StudyCase("nanoindentation-650mN", ROOT / "configs" / "nanoindentation-650mN.toml",
+                  base_increments=NANO_BASE_INCREMENTS),
         StudyCase("nanoindentation-linear-650mN",
-                  ROOT / "configs" / "nanoindentation-linear-650mN.toml"),
+                  ROOT / "configs" / "nanoindentation-linear-650mN.toml",
+                  base_increments=NANO_BASE_INCREMENTS),
         StudyCase("nanoindentation-perfect-650mN", ROOT / "configs" / "nanoindentation-650mN.toml",
-                  ("name=\"nanoindentation-perfect-650mN\"",), perfectly_plastic=True),
+                  ("name=\"nanoindentation-perfect-650mN\"",), perfectly_plastic=True,
+                  base_increments=NANO_BASE_INCREMENTS),
         StudyCase("dent-from-indentation-press",
                   ROOT / "pipelines" / "dent-from-indentation-press.toml"),
     )
@@ -148,6 +160,18 @@ def shipped_discretisation(case: Case) -> Discretisation:
     depth = solver_inputs(case).grid.depth
     return Discretisation(case.grid.nx, case.grid.nz, float(depth),
                           tuple(int(getattr(seg, "increments", 1)) for seg in case.load_path))
+
+
+def study_base(study_case: StudyCase, shipped: Discretisation,
+               overrides: Sequence[str] = ()) -> Discretisation:
+    """Return the base level of ``study_case``'s ladders: ``shipped`` with its base increments.
+
+    The case's :attr:`StudyCase.base_increments` replace the shipped ones unless an override
+    sets the load path (which then makes the base, as ``--quick`` does).
+    """
+    if study_case.base_increments is None or any(o.startswith("load_path") for o in overrides):
+        return shipped
+    return replace(shipped, increments=study_case.base_increments)
 
 
 #: The discretisation parameters a sequence may refine.
