@@ -331,15 +331,19 @@ def convergence_check(out: Path) -> dict[str, float]:
     return numbers
 
 
-#: docs/convergence.md's section on the print depth at the axis: tag -> (summary, levels) of
-#: data/ (the study rerun with ``print_depth_refined``, its layers to a fourth level, and the
-#: linear-hardening case's increments with the cell mean).
+#: docs/convergence.md's sections from the print depth at the axis on: tag -> (summary, levels)
+#: of data/ (the study rerun with ``print_depth_refined``, its layers to a fourth level, the
+#: linear-hardening case's increments with the cell mean, the σ11 read on the axis, the study
+#: with the configs' finer shipped grids, and five increment levels at 32² × 12 cells).
 REFINED_TABLES = {
     "refined": ("convergence-refined-summary.csv", "convergence-refined.csv"),
     "layers4": ("convergence-refined-layers4-summary.csv", "convergence-refined-layers4.csv"),
     "lincm": ("convergence-linear-cell-mean-increments-summary.csv",
               "convergence-linear-cell-mean-increments.csv"),
     "axis": ("convergence-axis-summary.csv", "convergence-axis.csv"),
+    "shipped": ("convergence-shipped-summary.csv", "convergence-shipped.csv"),
+    "inccoarse": ("convergence-increments-coarse-summary.csv",
+                  "convergence-increments-coarse.csv"),
 }
 #: Their quantities: quantity -> key stem.
 REFINED_QUANTITIES = {**CHECKED, "print_depth_refined": "print_depth_refined",
@@ -347,10 +351,43 @@ REFINED_QUANTITIES = {**CHECKED, "print_depth_refined": "print_depth_refined",
                       "residual_s11_axis_min_refined": "s11_min_refined",
                       "residual_s11_axis_at_1a": "s11_1a",
                       "residual_s11_axis_refined_at_0.5a": "s11_05a_refined",
-                      "residual_s11_axis_refined_at_1a": "s11_1a_refined"}
+                      "residual_s11_axis_refined_at_1a": "s11_1a_refined",
+                      "residual_s11_axis_refined_at_2a": "s11_2a_refined"}
 #: The columns of a summary row recorded: column -> key suffix.
 REFINED_COLUMNS = {"order": "order", "previous_order": "previous_order", "limit": "limit",
                    "relative_uncertainty": "uncertainty", "shipped_error": "shipped_error"}
+
+
+def _level_numbers(tag: str, levels: str) -> dict[str, float]:
+    """Each level's value and error of the levels table ``levels`` (``{tag}_..._level{L}``,
+    ``_error``), its change from the level before and its difference from the finest level
+    (``_change``, ``_from_finest``): see :func:`convergence_refined`. A level without the
+    quantity (a profile depth below its box) has no value, and its sequence no differences."""
+    from sacflow.studies.richardson import relative_errors
+
+    numbers: dict[str, float] = {}
+    sequences: dict[str, list[float | None]] = {}
+    for r in data_rows(levels):
+        case, stem = CELL_MEAN_CASES.get(r["case"]), REFINED_QUANTITIES.get(r["quantity"])
+        if case is None or stem is None:
+            continue
+        key = f"{tag}_{case}_{r['sequence']}_{stem}_level"
+        value = float(r["value"]) if r["value"] else None
+        sequences.setdefault(key, []).append(value)
+        if value is None:
+            continue
+        numbers[f"{key}{r['level']}"] = value
+        if r["relative_error"]:
+            numbers[f"{key}{r['level']}_error"] = float(r["relative_error"])
+    for key, values in sequences.items():
+        present = [v for v in values if v is not None]
+        if len(present) < len(values):
+            continue
+        from_finest = relative_errors(present, present[-1])
+        for level in range(1, len(present)):
+            numbers[f"{key}{level}_change"] = present[level] - present[level - 1]
+            numbers[f"{key}{level - 1}_from_finest"] = from_finest[level - 1]
+    return numbers
 
 
 def convergence_refined(out: Path) -> dict[str, float]:
@@ -379,21 +416,7 @@ def convergence_refined(out: Path) -> dict[str, float]:
             if r["shipped_value"] and r["finest_value"]:
                 numbers[f"{key}_shipped_from_finest"] = relative_errors(
                     [float(r["shipped_value"])], float(r["finest_value"]))[0]
-        sequences: dict[str, list[float]] = {}
-        for r in data_rows(levels):
-            case, stem = CELL_MEAN_CASES.get(r["case"]), REFINED_QUANTITIES.get(r["quantity"])
-            if case is None or stem is None:
-                continue
-            key = f"{tag}_{case}_{r['sequence']}_{stem}_level"
-            numbers[f"{key}{r['level']}"] = float(r["value"])
-            if r["relative_error"]:
-                numbers[f"{key}{r['level']}_error"] = float(r["relative_error"])
-            sequences.setdefault(key, []).append(float(r["value"]))
-        for key, values in sequences.items():
-            from_finest = relative_errors(values, values[-1])
-            for level in range(1, len(values)):
-                numbers[f"{key}{level}_change"] = values[level] - values[level - 1]
-                numbers[f"{key}{level - 1}_from_finest"] = from_finest[level - 1]
+        numbers.update(_level_numbers(tag, levels))
     for r in data_rows("convergence-refined-check.csv"):
         case, stem = CELL_MEAN_CASES.get(r["case"]), REFINED_QUANTITIES.get(r["quantity"])
         if case is not None and stem is not None:

@@ -18,6 +18,7 @@ import importlib.util
 import json
 import math
 import re
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -195,7 +196,7 @@ def test_a_checked_run_is_compared_with_the_prediction_at_its_step():
 def test_shipped_discretisation_makes_the_automatic_depth_explicit():
     case = base_case(STUDY_CASES["nanoindentation-650mN"])
     shipped = shipped_discretisation(case)
-    assert (shipped.nx, shipped.nz, shipped.increments) == (64, 24, (20, 10))
+    assert (shipped.nx, shipped.nz, shipped.increments) == (80, 48, (20, 10))
     assert case.grid.depth is None and shipped.depth > case.hertz().a
     perfect = base_case(STUDY_CASES["nanoindentation-perfect-650mN"])
     assert perfect.body.hardening.law == "perfectly_plastic"
@@ -215,21 +216,30 @@ def load_pipeline():
     return module
 
 
-def test_the_ladders_keep_their_base_while_the_configs_ship_twice_the_increments():
-    # the nano-indentations ship 20 + 10; the study's levels stay around 10 + 5, so that the
-    # shipped discretisation is the middle level of `increments` and `together`
+def test_the_ladders_keep_their_base_while_the_configs_ship_finer_discretisations():
+    # the nano-indentations ship 80² × 48 cells (96² at 190 mN) and 20 + 10 increments; the
+    # study's levels stay around 64² × 24 and 10 + 5, those of its recorded tables, and the
+    # shipped discretisation is run as a level of its own
     pipeline = load_pipeline()
-    base, shipped, sequences, _ = pipeline.case_setup(
-        pipeline.parse(["--cases", "nanoindentation-650mN"]), "nanoindentation-650mN")
-    assert (base.increments, shipped.increments) == ((10, 5), (20, 10))
-    assert base.nx == shipped.nx and base.nz == shipped.nz and base.depth == shipped.depth
-    for name in ("increments", "together"):
-        assert sequences[name].levels(base)[1] == shipped
-    assert [level.increments for level in sequences["lateral"].levels(base)] == [(10, 5)] * 3
-    # an override of the load path (here --quick's) is the base itself
+    for name, cells in (("nanoindentation-650mN", 80), ("nanoindentation-190mN", 96)):
+        base, shipped, sequences, _ = pipeline.case_setup(
+            pipeline.parse(["--cases", name]), name)
+        assert (base.nx, base.nz, base.increments) == (64, 24, (10, 5))
+        assert (shipped.nx, shipped.nz, shipped.increments) == (cells, 48, (20, 10))
+        assert base.depth == shipped.depth
+        for seq in ("increments", "together"):
+            assert sequences[seq].levels(base)[1] == replace(base, increments=(20, 10))
+        assert [level.increments for level in sequences["lateral"].levels(base)] == [(10, 5)] * 3
+        assert [level.nz for level in sequences["layers"].levels(base)] == [12, 24, 48]
+    # an override of the load path (here --quick's, with the grid) is the base itself
     base, shipped, _, _ = pipeline.case_setup(
         pipeline.parse(["--cases", "nanoindentation-650mN", "--quick"]), "nanoindentation-650mN")
     assert base == shipped and base.increments == (2, 1)
+    # an override of the grid alone keeps the base increments
+    base, shipped, _, _ = pipeline.case_setup(
+        pipeline.parse(["--cases", "nanoindentation-650mN", "--set", "grid.nz=30"]),
+        "nanoindentation-650mN")
+    assert (base.nx, base.nz, base.increments) == (80, 30, (10, 5))
     # the press has no other base
     base, shipped, _, _ = pipeline.case_setup(
         pipeline.parse(["--cases", "dent-from-indentation-press"]), "dent-from-indentation-press")

@@ -80,10 +80,11 @@ class StudyCase:
 
     ``perfectly_plastic`` replaces the hardening law by perfect plasticity at the law's own
     initial yield stress (``body.hardening`` with ``law = "perfectly_plastic"``).
-    ``base_increments``, when given, are the increments of the study's base level (the anchor
-    of its ladders, :func:`study_base`) in place of the case file's: the nano-indentations ship
-    20 + 10 since issue #32, the middle level of the ``increments`` and ``together``
-    sequences, while their ladders stay those of the tables recorded with 10 + 5.
+    ``base_increments`` and ``base_grid`` (surface cells per side, layers), when given, are
+    the increments and cells of the study's base level (the anchor of its ladders,
+    :func:`study_base`) in place of the case file's: the nano-indentations ship 20 + 10
+    increments and finer grids since issue #32 (chosen from the study's ``together`` limits),
+    while their ladders stay those of the tables recorded at 64² × 24 cells and 10 + 5.
     """
 
     name: str
@@ -91,22 +92,25 @@ class StudyCase:
     overrides: tuple[str, ...] = ()
     perfectly_plastic: bool = False
     base_increments: tuple[int, ...] | None = None
+    base_grid: tuple[int, int] | None = None
 
 
 #: The ladders' base increments of the nano-indentations (load + unload).
 NANO_BASE_INCREMENTS = (10, 5)
+#: The ladders' base grid of the nano-indentations: surface cells per side, layers.
+NANO_BASE_GRID = (64, 24)
 STUDY_CASES: dict[str, StudyCase] = {
     case.name: case for case in (
         StudyCase("nanoindentation-190mN", ROOT / "configs" / "nanoindentation-190mN.toml",
-                  base_increments=NANO_BASE_INCREMENTS),
+                  base_increments=NANO_BASE_INCREMENTS, base_grid=NANO_BASE_GRID),
         StudyCase("nanoindentation-650mN", ROOT / "configs" / "nanoindentation-650mN.toml",
-                  base_increments=NANO_BASE_INCREMENTS),
+                  base_increments=NANO_BASE_INCREMENTS, base_grid=NANO_BASE_GRID),
         StudyCase("nanoindentation-linear-650mN",
                   ROOT / "configs" / "nanoindentation-linear-650mN.toml",
-                  base_increments=NANO_BASE_INCREMENTS),
+                  base_increments=NANO_BASE_INCREMENTS, base_grid=NANO_BASE_GRID),
         StudyCase("nanoindentation-perfect-650mN", ROOT / "configs" / "nanoindentation-650mN.toml",
                   ("name=\"nanoindentation-perfect-650mN\"",), perfectly_plastic=True,
-                  base_increments=NANO_BASE_INCREMENTS),
+                  base_increments=NANO_BASE_INCREMENTS, base_grid=NANO_BASE_GRID),
         StudyCase("dent-from-indentation-press",
                   ROOT / "pipelines" / "dent-from-indentation-press.toml"),
     )
@@ -164,14 +168,26 @@ def shipped_discretisation(case: Case) -> Discretisation:
 
 def study_base(study_case: StudyCase, shipped: Discretisation,
                overrides: Sequence[str] = ()) -> Discretisation:
-    """Return the base level of ``study_case``'s ladders: ``shipped`` with its base increments.
+    """Return the base level of ``study_case``'s ladders: ``shipped`` with its base numbers.
 
-    The case's :attr:`StudyCase.base_increments` replace the shipped ones unless an override
-    sets the load path (which then makes the base, as ``--quick`` does).
+    The case's :attr:`StudyCase.base_increments` replace the shipped increments unless an
+    override sets the load path, and its :attr:`StudyCase.base_grid` the shipped cells unless
+    an override sets the cells (``grid.nx``, ``grid.ny``, ``grid.nz``; the overridden numbers
+    then make the base, as ``--quick``'s do). The box depth is always the shipped one.
     """
-    if study_case.base_increments is None or any(o.startswith("load_path") for o in overrides):
-        return shipped
-    return replace(shipped, increments=study_case.base_increments)
+    base = shipped
+    if study_case.base_increments is not None and not _overridden(overrides, "load_path"):
+        base = replace(base, increments=study_case.base_increments)
+    if study_case.base_grid is not None and not _overridden(overrides, "grid.nx", "grid.ny",
+                                                            "grid.nz", "grid"):
+        nx, nz = study_case.base_grid
+        base = replace(base, nx=nx, nz=nz)
+    return base
+
+
+def _overridden(overrides: Sequence[str], *fields: str) -> bool:
+    """Whether one of ``overrides`` sets one of ``fields`` or a field below one of them."""
+    return any(o.startswith((f"{field}.", f"{field}=")) for o in overrides for field in fields)
 
 
 #: The discretisation parameters a sequence may refine.
