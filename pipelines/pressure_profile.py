@@ -33,9 +33,8 @@ def parse(argv: list[str] | None) -> argparse.Namespace:
 
 def main(argv: list[str] | None = None) -> int:
     args = parse(argv)
-    from sacflow.config.solver_inputs import solver_inputs
+    from sacflow.config.solver_inputs import simulation_for
     from sacflow.errors import SacflowError
-    from sacflow.solver.simulation import Simulation
     from sacflow.storage.case_file import load_case
 
     if args.cells < 0:
@@ -44,7 +43,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     try:
         case = load_case(args.case, list(args.overrides))
-        sim = Simulation(solver_inputs(case))
+        sim = simulation_for(case)
         states = list(sim.run())
     except SacflowError as err:
         print(f"error: {err}", file=sys.stderr)

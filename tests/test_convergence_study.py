@@ -243,6 +243,11 @@ def test_the_ladders_keep_their_base_while_the_configs_ship_finer_discretisation
         pipeline.parse(["--cases", "nanoindentation-650mN", "--set", "grid.nz=30"]),
         "nanoindentation-650mN")
     assert (base.nx, base.nz, base.increments) == (80, 30, (10, 5))
+    # an override of the box depth alone keeps the base cells
+    base, shipped, _, _ = pipeline.case_setup(
+        pipeline.parse(["--cases", "nanoindentation-650mN", "--set", "grid.depth=2e-5"]),
+        "nanoindentation-650mN")
+    assert (base.nx, base.nz, base.depth) == (64, 24, 2e-5) and shipped.nx == 80
     # the press has no other base
     base, shipped, _, _ = pipeline.case_setup(
         pipeline.parse(["--cases", "dent-from-indentation-press"]), "dent-from-indentation-press")

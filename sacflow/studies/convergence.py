@@ -171,6 +171,10 @@ def shipped_discretisation(case: Case) -> Discretisation:
                           tuple(int(getattr(seg, "increments", 1)) for seg in case.load_path))
 
 
+#: Override keys that set the cells of the grid (the whole table, or its counts).
+CELL_KEYS = frozenset({"grid", "grid.nx", "grid.ny", "grid.nz"})
+
+
 def study_base(study_case: StudyCase, shipped: Discretisation,
                overrides: Sequence[str] = ()) -> Discretisation:
     """Return the base level of ``study_case``'s ladders: ``shipped`` with its base numbers.
@@ -180,19 +184,15 @@ def study_base(study_case: StudyCase, shipped: Discretisation,
     an override sets the cells (``grid.nx``, ``grid.ny``, ``grid.nz``; the overridden numbers
     then make the base, as ``--quick``'s do). The box depth is always the shipped one.
     """
+    keys = {o.split("=", 1)[0].strip() for o in overrides}
     base = shipped
-    if study_case.base_increments is not None and not _overridden(overrides, "load_path"):
+    if study_case.base_increments is not None and not any(
+            k == "load_path" or k.startswith("load_path.") for k in keys):
         base = replace(base, increments=study_case.base_increments)
-    if study_case.base_grid is not None and not _overridden(overrides, "grid.nx", "grid.ny",
-                                                            "grid.nz", "grid"):
+    if study_case.base_grid is not None and not keys & CELL_KEYS:
         nx, nz = study_case.base_grid
         base = replace(base, nx=nx, nz=nz)
     return base
-
-
-def _overridden(overrides: Sequence[str], *fields: str) -> bool:
-    """Whether one of ``overrides`` sets one of ``fields`` or a field below one of them."""
-    return any(o.startswith((f"{field}.", f"{field}=")) for o in overrides for field in fields)
 
 
 #: The discretisation parameters a sequence may refine.
