@@ -2,7 +2,7 @@
 
     python pipelines/convergence.py [--cases NAME,...] [--sequences NAME,...] [--levels N]
         [--cache DIR] [--table CSV] [--summary CSV] [--plots DIR] [--overwrite]
-        [--set KEY=VALUE ...] [--quick] [--all] [--plan]
+        [--set KEY=VALUE ...] [--quick] [--all] [--plan] [--steps H,H,H...]
         [--check STEP [--against CSV] [--check-table CSV]] [--advise [--target E]]
 
 For each case (:data:`sacflow.studies.convergence.STUDY_CASES`) and each refinement sequence
@@ -24,6 +24,11 @@ The levels of each sequence lie around the study's base discretisation
 the nano-indentations (which ship 20 + 10, the middle level of ``increments`` and ``together``).
 The shipped error is always that of the shipped discretisation, run as a level of its own when
 it is not one of the sequence's.
+
+``--steps`` (e.g. ``1/2,1/3,1/4,1/5``, h relative to the coarsest level, decreasing) runs each
+sequence at those steps instead of its constant ratio, and extrapolates through the three
+finest with the order of unequal ratios (:func:`sacflow.studies.richardson.extrapolate_steps`):
+a finer last level where doubling every parameter again would be too costly.
 
 ``--plan`` lists the levels of each sequence, and which are already cached, and runs nothing.
 
@@ -59,6 +64,7 @@ import sys
 import tempfile
 import time
 from collections.abc import Sequence
+from itertools import pairwise
 from pathlib import Path
 from typing import Any
 
@@ -134,6 +140,9 @@ def parse(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--sequences", default=",".join(SEQUENCES),
                         help=f"comma-separated, of {', '.join(SEQUENCES)}")
     parser.add_argument("--levels", type=int, default=3, help="levels per sequence (>= 3)")
+    parser.add_argument("--steps", type=step_list, metavar="H,H,H...",
+                        help="run the sequences at these steps (e.g. 1/2,1/3,1/4,1/5) instead "
+                             "of --levels")
     parser.add_argument("--cache", type=Path)
     parser.add_argument("--table", type=Path)
     parser.add_argument("--summary", type=Path)
@@ -187,6 +196,15 @@ def step_fraction(text: str) -> float:
     return step
 
 
+def step_list(text: str) -> tuple[float, ...]:
+    """Parse ``--steps``: three or more decreasing steps (:func:`step_fraction` each)."""
+    steps = tuple(step_fraction(part) for part in text.split(",") if part.strip())
+    if len(steps) < 3 or not all(a > b for a, b in pairwise(steps)):
+        raise argparse.ArgumentTypeError(f"give three or more decreasing steps (coarse to "
+                                         f"fine, e.g. 1/2,1/3,1/4): got {text!r}")
+    return steps
+
+
 def study(args: argparse.Namespace) -> int:
     """Run (or read from the cache) every level, then write the tables and plots."""
     if args.advise:
@@ -201,7 +219,9 @@ def study(args: argparse.Namespace) -> int:
     for name in args.cases:
         base, shipped_level, sequences, overrides = case_setup(args, name)
         runner = LevelRunner(STUDY_CASES[name], overrides, args.cache, fingerprint)
-        plan = {seq: sequences[seq].levels(base, args.levels) for seq in args.sequences}
+        plan = {seq: ([sequences[seq].at_step(base, h) for h in args.steps] if args.steps
+                      else sequences[seq].levels(base, args.levels))
+                for seq in args.sequences}
         if args.plan:
             print_plan(runner, base, shipped_level, plan)
             continue
@@ -213,7 +233,7 @@ def study(args: argparse.Namespace) -> int:
                 [None if r is None else r["quantities"] for r in records],
                 None if shipped is None else shipped["quantities"],
                 [None if r is None else r["converged"] for r in records],
-                [None if r is None else r["profile"] for r in records]))
+                [None if r is None else r["profile"] for r in records], args.steps or ()))
     if args.plan:
         return 0
     levels_table = [row for r in results for row in level_rows(r)]

@@ -334,7 +334,9 @@ def convergence_check(out: Path) -> dict[str, float]:
 #: docs/convergence.md's sections from the print depth at the axis on: tag -> (summary, levels)
 #: of data/ (the study rerun with ``print_depth_refined``, its layers to a fourth level, the
 #: linear-hardening case's increments with the cell mean, the σ11 read on the axis, the study
-#: with the configs' finer shipped grids, and five increment levels at 32² × 12 cells).
+#: with the configs' finer shipped grids, five increment levels at 32² × 12 cells, the
+#: linear-hardening case's `together` at h = 1, 1/2, 1/4 and 1/5, and its increments on the
+#: 80² × 48 grid from 20 + 10).
 REFINED_TABLES = {
     "refined": ("convergence-refined-summary.csv", "convergence-refined.csv"),
     "layers4": ("convergence-refined-layers4-summary.csv", "convergence-refined-layers4.csv"),
@@ -344,7 +346,14 @@ REFINED_TABLES = {
     "shipped": ("convergence-shipped-summary.csv", "convergence-shipped.csv"),
     "inccoarse": ("convergence-increments-coarse-summary.csv",
                   "convergence-increments-coarse.csv"),
+    "steps": ("convergence-steps-summary.csv", "convergence-steps.csv"),
+    "incgrid": ("convergence-increments-grid-summary.csv", "convergence-increments-grid.csv"),
 }
+#: Level tables whose levels are also compared with the `together` limits of
+#: ``data/convergence-shipped-summary.csv`` (``{tag}_..._level{L}_together_error``).
+AGAINST_TOGETHER = ("incgrid",)
+#: Level tables compared with the model of that `together` sequence at their steps.
+AGAINST_MODEL = ("steps",)
 #: Their quantities: quantity -> key stem.
 REFINED_QUANTITIES = {**CHECKED, "print_depth_refined": "print_depth_refined",
                       "max_plastic_strain_refined_depth": "max_eqps_refined_depth",
@@ -352,7 +361,9 @@ REFINED_QUANTITIES = {**CHECKED, "print_depth_refined": "print_depth_refined",
                       "residual_s11_axis_at_1a": "s11_1a",
                       "residual_s11_axis_refined_at_0.5a": "s11_05a_refined",
                       "residual_s11_axis_refined_at_1a": "s11_1a_refined",
-                      "residual_s11_axis_refined_at_2a": "s11_2a_refined"}
+                      "residual_s11_axis_refined_at_2a": "s11_2a_refined",
+                      "residual_s11_axis_refined_at_0.25a": "s11_025a_refined",
+                      "residual_s11_axis_refined_at_1.5a": "s11_15a_refined"}
 #: The columns of a summary row recorded: column -> key suffix.
 REFINED_COLUMNS = {"order": "order", "previous_order": "previous_order", "limit": "limit",
                    "relative_uncertainty": "uncertainty", "shipped_error": "shipped_error"}
@@ -421,6 +432,62 @@ def convergence_refined(out: Path) -> dict[str, float]:
         case, stem = CELL_MEAN_CASES.get(r["case"]), REFINED_QUANTITIES.get(r["quantity"])
         if case is not None and stem is not None:
             numbers[f"refcheck_{case}_{stem}_error"] = float(r["relative_error"])
+    for r in data_rows("convergence-shipped-check.csv"):
+        case, stem = CELL_MEAN_CASES.get(r["case"]), REFINED_QUANTITIES.get(r["quantity"])
+        if case is not None and stem is not None:
+            numbers.update({f"shipcheck_{case}_{stem}_{suffix}": float(r[column])
+                            for column, suffix in (("relative_error", "error"),
+                                                   ("predicted_error", "predicted"),
+                                                   ("discrepancy", "discrepancy"))})
+    numbers.update(_against_together())
+    return numbers
+
+
+def _against_together() -> dict[str, float]:
+    """Levels and limits of other tables against the `together` sequence of the same case and
+    quantity in ``data/convergence-shipped-summary.csv`` (relative, as the study's errors).
+
+    For the tables of :data:`AGAINST_TOGETHER`: each level's error against that limit
+    (``{tag}_..._level{L}_together_error``) and its difference from that sequence's finest
+    level (``..._level{L}_together_from_finest``), and the table's own limit against it
+    (``{tag}_..._limit_together_error``). For those of :data:`AGAINST_MODEL`: each level's
+    distance from that sequence's model f∞ + C hᵖ at its step, relative to f∞
+    (``..._level{L}_model_discrepancy``, as ``--check`` gives it).
+    """
+    from sacflow.studies.convergence_table import finest_step
+    from sacflow.studies.richardson import relative_errors, value_at_step
+
+    together = {(r["case"], r["quantity"]): r for r in data_rows("convergence-shipped-summary.csv")
+                if r["sequence"] == "together"}
+    numbers: dict[str, float] = {}
+
+    def fits(tags: tuple[str, ...], table: int):
+        for tag in tags:
+            for r in data_rows(REFINED_TABLES[tag][table]):
+                case, stem = CELL_MEAN_CASES.get(r["case"]), REFINED_QUANTITIES.get(r["quantity"])
+                fit = together.get((r["case"], r["quantity"]))
+                if case is not None and stem is not None and fit is not None:
+                    yield f"{tag}_{case}_{r['sequence']}_{stem}", r, fit
+
+    for key, r, fit in fits(AGAINST_TOGETHER, 1):
+        if r["value"]:
+            value, level = float(r["value"]), r["level"]
+            numbers[f"{key}_level{level}_together_from_finest"] = relative_errors(
+                [value], float(fit["finest_value"]))[0]
+            if fit["limit"]:
+                numbers[f"{key}_level{level}_together_error"] = relative_errors(
+                    [value], float(fit["limit"]))[0]
+    for key, r, fit in fits(AGAINST_TOGETHER, 0):
+        if r["limit"] and fit["limit"]:
+            numbers[f"{key}_limit_together_error"] = relative_errors(
+                [float(r["limit"])], float(fit["limit"]))[0]
+    for key, r, fit in fits(AGAINST_MODEL, 1):
+        if r["value"] and fit["limit"] and fit["order"]:
+            limit = float(fit["limit"])
+            model = value_at_step(float(fit["finest_value"]), limit, float(fit["order"]),
+                                  finest_step(fit), float(r["h"]))
+            numbers[f"{key}_level{r['level']}_model_discrepancy"] = (
+                (float(r["value"]) - model) / abs(limit))
     return numbers
 
 

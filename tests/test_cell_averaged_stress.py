@@ -146,7 +146,8 @@ def axis_plastic_strain(sampling: int, layers: int) -> np.ndarray:
 
     config = Path(__file__).resolve().parent.parent / "configs/nanoindentation-linear-650mN.toml"
     case = load_case(config, ["body.hardening.modulus=1e9", "grid.nx=32", "grid.ny=32",
-                              f"grid.nz={layers}", "solver.fft_threads=1",
+                              f"grid.nz={layers}", "load_path.0.increments=20",
+                              "load_path.1.increments=10", "solver.fft_threads=1",
                               f"solver.stress_sampling={sampling}"])
     sim = Simulation(solver_inputs(case))
     states = list(sim.run())

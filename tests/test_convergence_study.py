@@ -41,6 +41,7 @@ from sacflow.studies.convergence_table import (
 from sacflow.studies.richardson import (
     GCI_SAFETY_FACTOR,
     extrapolate,
+    extrapolate_steps,
     observed_order,
     relative_errors,
     step_for_error,
@@ -110,6 +111,43 @@ def test_extrapolation_needs_three_levels_and_a_ratio_above_one():
         extrapolate([1.0, 2.0], 2.0)
     with pytest.raises(ValueError, match="ratio"):
         extrapolate([1.0, 2.0, 2.5], 1.0)
+
+
+@pytest.mark.parametrize(("order", "coefficient"),
+                         [(2.0, 0.3), (1.3, -4.0), (3.7, 5.0), (0.6, 1.0)])
+def test_unequal_steps_recover_order_and_limit(order, coefficient):
+    """Levels at h = 1/2, 1/3, 1/4, 1/5 of f = f∞ + C hᵖ: the root of the unequal-ratio equation
+    is p, the limit f∞, and the GCI uses the finest pair's ratio 5/4."""
+    steps = [1 / 2, 1 / 3, 1 / 4, 1 / 5]
+    values = [-565.0 + coefficient * h**order for h in steps]
+    fit = extrapolate_steps(values, steps, formal_order=2.0)
+    assert fit.behaviour == "monotone"
+    assert fit.order == pytest.approx(order, rel=1e-9)
+    assert fit.previous_order == pytest.approx(order, rel=1e-9)
+    assert fit.limit == pytest.approx(-565.0, abs=1e-9)
+    credited = min(order, 2.0)
+    gci = GCI_SAFETY_FACTOR * abs(values[-1] - values[-2]) / (1.25**credited - 1.0)
+    assert fit.uncertainty == pytest.approx(gci, rel=1e-9)
+    assert fit.formal_limit == pytest.approx(
+        values[-1] + (values[-1] - values[-2]) / (1.25**2 - 1.0), rel=1e-12)
+
+
+def test_unequal_steps_with_a_constant_ratio_are_the_ratio_form():
+    values = [3.0, 2.2, 2.05, 2.01]
+    steps = [1.0, 1 / 3, 1 / 9, 1 / 27]
+    assert extrapolate_steps(values, steps, 2.0) == extrapolate(values, 3.0, 2.0)
+
+
+def test_unequal_steps_flag_differences_that_no_positive_order_explains():
+    # h = 1/2, 1/3, 1/4: order 0+ gives the ratio ln(3/2) / ln(4/3) = 1.41 of the differences
+    steps = [1 / 2, 1 / 3, 1 / 4]
+    assert extrapolate_steps([1.0, 2.3, 3.3], steps).behaviour == "diverging"  # ratio 1.3
+    assert extrapolate_steps([1.0, 2.5, 3.5], steps).behaviour == "monotone"  # ratio 1.5
+    assert extrapolate_steps([1.0, 2.0, 1.5], steps).behaviour == "oscillating"
+    with pytest.raises(ValueError, match="decrease"):
+        extrapolate_steps([1.0, 2.0, 2.5], [1.0, 1.0, 0.5])
+    with pytest.raises(ValueError, match="one step per level"):
+        extrapolate_steps([1.0, 2.0, 2.5], [1.0, 0.5])
 
 
 @pytest.mark.parametrize(("order", "coefficient"), [(2.0, 0.3), (1.3, -4.0), (2.6, 1e-3)])
@@ -349,3 +387,31 @@ def test_quick_check_and_advice(tmp_path, capsys):
     assert "not a summary table" in capsys.readouterr().err
     assert pipeline.main([*common, "--advise", "--against", str(tmp_path / "none.csv")]) == 2
     assert "no summary table" in capsys.readouterr().err
+
+
+def test_quick_study_at_chosen_steps(tmp_path, capsys):
+    """--steps runs a sequence at h = 1, 1/2, 1/3 (not a constant ratio): the levels table
+    gives those steps, the summary the finest step and the finest pair's ratio, and its
+    limits are those of :func:`extrapolate_steps` through the three levels."""
+    pipeline = load_pipeline()
+    table, summary = tmp_path / "levels.csv", tmp_path / "summary.csv"
+    argv = ["--quick", "--cases", "nanoindentation-190mN", "--sequences", "layers",
+            "--cache", str(tmp_path / "c"), "--table", str(table), "--summary", str(summary),
+            "--steps", "1,1/2,1/3"]
+    assert pipeline.main(argv) == 0
+    levels, rows = read(table), read(summary)
+    steps = {(r["level"], r["nz"]): float(r["h"]) for r in levels}
+    assert steps == {("0", "4"): 1.0, ("1", "8"): 0.5, ("2", "12"): pytest.approx(1 / 3)}
+    depth = next(r for r in rows if r["quantity"] == "print_depth")
+    values = [float(r["value"]) for r in levels if r["quantity"] == "print_depth"]
+    fit = extrapolate_steps(values, [1.0, 1 / 2, 1 / 3], 2.0)
+    assert float(depth["ratio"]) == pytest.approx(1.5)
+    assert float(depth["finest_step"]) == pytest.approx(1 / 3)
+    assert depth["behaviour"] == fit.behaviour
+    if fit.behaviour == "monotone":  # both from values written with 10 digits
+        assert float(depth["limit"]) == pytest.approx(fit.limit, rel=1e-6)
+        assert float(depth["order"]) == pytest.approx(fit.order, rel=1e-6)
+    capsys.readouterr()
+    with pytest.raises(SystemExit):
+        pipeline.main([*argv, "--steps", "1/2,1/2,1/3"])
+    assert "decreasing steps" in capsys.readouterr().err

@@ -9,8 +9,8 @@ Two tidy tables, written as CSV:
   behaviour of the last three levels (and whether every step of every level converged), the
   observed order (and that of the three before, with four levels or more), the Richardson
   limit and its uncertainty (GCI, F_s = 1.25: :mod:`sacflow.studies.richardson`), the limit
-  with the formal order, and the shipped discretisation's value with its relative error
-  against the limit.
+  with the formal order, the shipped discretisation's value with its relative error
+  against the limit, and the finest level's step (``ratio`` is that of the finest two levels).
 """
 
 from __future__ import annotations
@@ -33,6 +33,7 @@ from sacflow.studies.richardson import (
     MONOTONE,
     Extrapolation,
     extrapolate,
+    extrapolate_steps,
     relative_errors,
     step_for_error,
     value_at_step,
@@ -61,8 +62,11 @@ LEVEL_COLUMNS: tuple[str, ...] = (
 SUMMARY_COLUMNS: tuple[str, ...] = (
     "case", "sequence", "quantity", "unit", "ratio", "levels", "converged", "behaviour", "order",
     "previous_order", "formal_order", "limit", "uncertainty", "relative_uncertainty",
-    "formal_limit", "finest_value", "shipped_value", "shipped_error",
+    "formal_limit", "finest_value", "shipped_value", "shipped_error", "finest_step",
 )
+#: Summary columns added since the first recorded tables, which :func:`read_summary` accepts
+#: without them.
+LATER_COLUMNS: tuple[str, ...] = ("finest_step",)
 #: One row per quantity of a level run to check a study's extrapolation (``--check``): the
 #: run's value, the value the summary's model f∞ + C hᵖ predicts at its step, and both errors
 #: against the summary's limit.
@@ -87,6 +91,8 @@ class SequenceResult:
     of each level (None for a level that failed), ``shipped`` those of the shipped
     discretisation, ``converged`` whether every step of each level met its tolerances and
     ``profiles`` each level's residual σ11 axis profile (``x3``, ``residual_s11``), if known.
+    ``steps`` are the levels' steps h (1 at the sequence's coarsest level) when they are not the
+    refinement's constant ratio (``pipelines/convergence.py --steps``); empty: r⁻ᵏ.
     """
 
     case: str
@@ -96,6 +102,11 @@ class SequenceResult:
     shipped: Mapping[str, float] | None
     converged: Sequence[bool | None] = ()
     profiles: Sequence[Mapping[str, Sequence[float]] | None] = ()
+    steps: Sequence[float] = ()
+
+    def step(self, k: int) -> float:
+        """Step h of level ``k`` (1 at the coarsest level of the refinement's ratio)."""
+        return float(self.steps[k]) if self.steps else self.refinement.step_size(k)
 
     def names(self) -> list[str]:
         """Return the quantity names, in the order of the first level that has them."""
@@ -114,6 +125,8 @@ class SequenceResult:
         values = self.values(name)
         if not all(math.isfinite(v) for v in values):
             return None
+        if self.steps:
+            return extrapolate_steps(values, self.steps, self.refinement.formal_order)
         return extrapolate(values, self.refinement.ratio, self.refinement.formal_order)
 
 
@@ -129,7 +142,7 @@ def level_rows(result: SequenceResult) -> list[dict[str, Any]]:
             rows.append({
                 "case": result.case, "sequence": result.refinement.name, "level": k,
                 "nx": level.nx, "nz": level.nz, "depth": level.depth,
-                "increments": level.total_increments, "h": result.refinement.step_size(k),
+                "increments": level.total_increments, "h": result.step(k),
                 "converged": result.converged[k] if k < len(result.converged) else "",
                 "quantity": name, "unit": unit_of(name), "value": value,
                 "relative_error": error,
@@ -148,7 +161,9 @@ def summary_rows(result: SequenceResult) -> list[dict[str, Any]]:
         limit = math.nan if fit is None else fit.limit
         row: dict[str, Any] = {
             "case": result.case, "sequence": seq.name, "quantity": name, "unit": unit_of(name),
-            "ratio": seq.ratio, "levels": len(values),
+            "ratio": (result.step(len(values) - 2) / result.step(len(values) - 1)
+                      if result.steps else seq.ratio),
+            "levels": len(values),
             "converged": all(c is True for c in result.converged) if result.converged else "",
             "behaviour": MISSING if fit is None else fit.behaviour,
             "order": math.nan if fit is None else fit.order,
@@ -159,6 +174,7 @@ def summary_rows(result: SequenceResult) -> list[dict[str, Any]]:
             "formal_limit": math.nan if fit is None else fit.formal_limit,
             "finest_value": values[-1], "shipped_value": shipped,
             "shipped_error": relative_errors([shipped], limit)[0],
+            "finest_step": result.step(len(values) - 1),
         }
         row["relative_uncertainty"] = (row["uncertainty"] / abs(limit)
                                        if math.isfinite(limit) and limit != 0.0 else math.nan)
@@ -176,7 +192,8 @@ def read_summary(path: Path) -> dict[tuple[str, str, str], dict[str, Any]]:
     rows: dict[tuple[str, str, str], dict[str, Any]] = {}
     with path.open(newline="", encoding="utf-8") as f:
         reader = csv.DictReader(f)
-        missing = [c for c in SUMMARY_COLUMNS if c not in (reader.fieldnames or ())]
+        missing = [c for c in SUMMARY_COLUMNS
+                   if c not in (reader.fieldnames or ()) and c not in LATER_COLUMNS]
         if missing:
             raise SacflowError(f"{path} is not a summary table of pipelines/convergence.py (no "
                                f"column {', '.join(missing[:3])}): give its --summary, e.g. "
@@ -195,7 +212,13 @@ def _parsed(column: str, text: str | None) -> Any:
 
 
 def finest_step(row: Mapping[str, Any]) -> float:
-    """Return the step of a summary row's finest level (the coarsest's is 1): r^−(levels − 1)."""
+    """Return the step of a summary row's finest level (the coarsest's is 1).
+
+    Its ``finest_step``; in the summaries written before that column, r^−(levels − 1).
+    """
+    step = float(row.get("finest_step", math.nan))
+    if math.isfinite(step):
+        return step
     return float(row["ratio"]) ** -(float(row["levels"]) - 1.0)
 
 
@@ -283,7 +306,7 @@ def plot_errors(result: SequenceResult, names: Sequence[str]) -> Figure:
     fig = Figure(figsize=(6.4, 4.8))
     ax = fig.add_subplot()
     seq = result.refinement
-    h = np.array([seq.step_size(k) for k in range(len(result.levels))])
+    h = np.array([result.step(k) for k in range(len(result.levels))])
     anchor = None
     for name in names:
         fit = result.analysis(name)
@@ -299,7 +322,8 @@ def plot_errors(result: SequenceResult, names: Sequence[str]) -> Figure:
     if anchor is not None and seq.formal_order is not None:
         ax.loglog(h, anchor[1] * (h / anchor[0]) ** seq.formal_order, "k--",
                   label=f"slope {seq.formal_order:g}")
-    ax.set_xlabel(f"h relative to the coarsest level ({seq.name}, ratio {seq.ratio:g})")
+    spacing = "chosen steps" if result.steps else f"ratio {seq.ratio:g}"
+    ax.set_xlabel(f"h relative to the coarsest level ({seq.name}, {spacing})")
     ax.set_ylabel("|f − f∞| / |f∞|")
     ax.set_title(f"{result.case}: {seq.name}")
     if anchor is not None:
