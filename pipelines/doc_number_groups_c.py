@@ -352,6 +352,14 @@ REFINED_TABLES = {
 #: Level tables whose levels are also compared with the `together` limits of
 #: ``data/convergence-shipped-summary.csv`` (``{tag}_..._level{L}_together_error``).
 AGAINST_TOGETHER = ("incgrid",)
+#: Checks of ``data/convergence-shipped-summary.csv``'s `together` models at h = 1/3 and 1/5
+#: (``pipelines/convergence.py --check``): tag -> table.
+SHIPPED_CHECKS = {"shipcheck": "convergence-shipped-check.csv",
+                  "shipcheck5": "convergence-shipped-check-5.csv"}
+#: The quantities of docs/convergence.md's table of the Swift cases at their shipped grids.
+SWIFT_TABLE_STEMS = ("approach", "print_depth_refined", "max_eqps_refined",
+                     "max_eqps_refined_depth", "s11_min_refined", "s11_05a_refined",
+                     "s11_1a_refined", "s11_2a_refined", "peak_pressure")
 #: Level tables compared with the model of that `together` sequence at their steps.
 AGAINST_MODEL = ("steps",)
 #: Their quantities: quantity -> key stem.
@@ -432,13 +440,21 @@ def convergence_refined(out: Path) -> dict[str, float]:
         case, stem = CELL_MEAN_CASES.get(r["case"]), REFINED_QUANTITIES.get(r["quantity"])
         if case is not None and stem is not None:
             numbers[f"refcheck_{case}_{stem}_error"] = float(r["relative_error"])
-    for r in data_rows("convergence-shipped-check.csv"):
-        case, stem = CELL_MEAN_CASES.get(r["case"]), REFINED_QUANTITIES.get(r["quantity"])
-        if case is not None and stem is not None:
-            numbers.update({f"shipcheck_{case}_{stem}_{suffix}": float(r[column])
-                            for column, suffix in (("relative_error", "error"),
-                                                   ("predicted_error", "predicted"),
-                                                   ("discrepancy", "discrepancy"))})
+    for tag, table in SHIPPED_CHECKS.items():
+        for r in data_rows(table):
+            case, stem = CELL_MEAN_CASES.get(r["case"]), REFINED_QUANTITIES.get(r["quantity"])
+            if case is not None and stem is not None:
+                numbers.update({f"{tag}_{case}_{stem}_{suffix}": float(r[column])
+                                for column, suffix in (("relative_error", "error"),
+                                                       ("predicted_error", "predicted"),
+                                                       ("discrepancy", "discrepancy"),
+                                                       ("value", "value"))})
+    for case in ("650mN", "190mN"):
+        sizes = {stem: abs(numbers[key]) for stem in SWIFT_TABLE_STEMS
+                 if (key := f"shipcheck5_{case}_{stem}_discrepancy") in numbers}
+        numbers[f"shipcheck5_{case}_largest_discrepancy"] = max(sizes.values())
+        numbers[f"shipcheck5_{case}_largest_discrepancy_but_depth"] = max(
+            v for stem, v in sizes.items() if stem != "max_eqps_refined_depth")
     numbers.update(_against_together())
     return numbers
 
