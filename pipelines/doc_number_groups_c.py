@@ -334,7 +334,7 @@ def convergence_check(out: Path) -> dict[str, float]:
 #: docs/convergence.md's sections from the print depth at the axis on: tag -> (summary, levels)
 #: of data/ (the study rerun with ``print_depth_refined``, its layers to a fourth level, the
 #: linear-hardening case's increments with the cell mean, the σ11 read on the axis, the study
-#: with the configs' finer shipped grids, five increment levels at 32² × 12 cells, the
+#: with the configs' finer shipped grids, five and six increment levels at 32² × 12 cells, the
 #: linear-hardening case's `together` at h = 1, 1/2, 1/4 and 1/5, and its increments on the
 #: 80² × 48 grid from 20 + 10).
 REFINED_TABLES = {
@@ -346,6 +346,7 @@ REFINED_TABLES = {
     "shipped": ("convergence-shipped-summary.csv", "convergence-shipped.csv"),
     "inccoarse": ("convergence-increments-coarse-summary.csv",
                   "convergence-increments-coarse.csv"),
+    "incsix": ("convergence-increments-six-summary.csv", "convergence-increments-six.csv"),
     "steps": ("convergence-steps-summary.csv", "convergence-steps.csv"),
     "incgrid": ("convergence-increments-grid-summary.csv", "convergence-increments-grid.csv"),
 }
