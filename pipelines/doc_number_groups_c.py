@@ -471,11 +471,12 @@ def _against_together() -> dict[str, float]:
     distance from that sequence's model f∞ + C hᵖ at its step, relative to f∞
     (``..._level{L}_model_discrepancy``, as ``--check`` gives it).
     """
-    from sacflow.studies.convergence_table import finest_step
-    from sacflow.studies.richardson import relative_errors, value_at_step
+    from sacflow.studies.convergence_table import model_check, read_summary
+    from sacflow.studies.richardson import relative_errors
 
-    together = {(r["case"], r["quantity"]): r for r in data_rows("convergence-shipped-summary.csv")
-                if r["sequence"] == "together"}
+    together = {(case, quantity): row for (case, sequence, quantity), row
+                in read_summary(ROOT / "data" / "convergence-shipped-summary.csv").items()
+                if sequence == "together"}
     numbers: dict[str, float] = {}
 
     def fits(tags: tuple[str, ...], table: int):
@@ -490,21 +491,18 @@ def _against_together() -> dict[str, float]:
         if r["value"]:
             value, level = float(r["value"]), r["level"]
             numbers[f"{key}_level{level}_together_from_finest"] = relative_errors(
-                [value], float(fit["finest_value"]))[0]
-            if fit["limit"]:
+                [value], fit["finest_value"])[0]
+            if math.isfinite(fit["limit"]):
                 numbers[f"{key}_level{level}_together_error"] = relative_errors(
-                    [value], float(fit["limit"]))[0]
+                    [value], fit["limit"])[0]
     for key, r, fit in fits(AGAINST_TOGETHER, 0):
-        if r["limit"] and fit["limit"]:
+        if r["limit"] and math.isfinite(fit["limit"]):
             numbers[f"{key}_limit_together_error"] = relative_errors(
-                [float(r["limit"])], float(fit["limit"]))[0]
+                [float(r["limit"])], fit["limit"])[0]
     for key, r, fit in fits(AGAINST_MODEL, 1):
-        if r["value"] and fit["limit"] and fit["order"]:
-            limit = float(fit["limit"])
-            model = value_at_step(float(fit["finest_value"]), limit, float(fit["order"]),
-                                  finest_step(fit), float(r["h"]))
-            numbers[f"{key}_level{r['level']}_model_discrepancy"] = (
-                (float(r["value"]) - model) / abs(limit))
+        if r["value"] and math.isfinite(fit["limit"]) and math.isfinite(fit["order"]):
+            _, error, predicted = model_check(fit, float(r["value"]), float(r["h"]))
+            numbers[f"{key}_level{r['level']}_model_discrepancy"] = error - predicted
     return numbers
 
 

@@ -48,6 +48,7 @@ __all__ = [
     "advised_step",
     "check_rows",
     "level_rows",
+    "model_check",
     "plot_errors",
     "plot_profiles",
     "read_summary",
@@ -232,6 +233,20 @@ def advised_step(row: Mapping[str, Any], target: float = TARGET_ERROR) -> float:
                           finest_step(row), target)
 
 
+def model_check(fit: Mapping[str, Any], value: float, step: float) -> tuple[float, float, float]:
+    """Compare a value at ``step`` with a summary row's model f∞ + C hᵖ (through its finest level).
+
+    Return the model's value there (:func:`value_at_step`), the value's relative error against
+    the row's limit and the model's; their difference is the ``discrepancy`` of
+    :func:`check_rows`. ``fit`` is a row of :func:`read_summary`.
+    """
+    limit = float(fit["limit"])
+    predicted = value_at_step(float(fit["finest_value"]), limit, float(fit["order"]),
+                              finest_step(fit), step)
+    error, predicted_error = relative_errors([value, predicted], limit)
+    return predicted, error, predicted_error
+
+
 def check_rows(case: str, sequence: str, step: float, level: Discretisation,
                record: Mapping[str, Any],
                summary: Mapping[tuple[str, str, str], Mapping[str, Any]]) -> list[dict[str, Any]]:
@@ -249,9 +264,7 @@ def check_rows(case: str, sequence: str, step: float, level: Discretisation,
         if fit is None or fit["behaviour"] != MONOTONE:
             continue
         limit, order = float(fit["limit"]), float(fit["order"])
-        predicted = value_at_step(float(fit["finest_value"]), limit, order, finest_step(fit),
-                                  step)
-        error, predicted_error = relative_errors([value, predicted], limit)
+        predicted, error, predicted_error = model_check(fit, float(value), step)
         rows.append({
             "case": case, "sequence": sequence, "step": step, "nx": level.nx, "nz": level.nz,
             "depth": level.depth, "increments": level.total_increments,
