@@ -57,6 +57,10 @@ def dent_from_indentation(out: Path) -> dict[str, float]:
             for what in ("", "_x1", "_x2", "_depth"):
                 numbers[f"dent_indentation_{name}_track_max{what}_{label}"] = float(
                     index[f"{name}_track_max{what}"])
+            # the track is symmetric about x2 = 0: the lateral distance, whichever side
+            # holds the maximum of two equal rims
+            numbers[f"dent_indentation_{name}_track_max_x2_{label}"] = abs(
+                numbers[f"dent_indentation_{name}_track_max_x2_{label}"])
     peak = [numbers[f"dent_indentation_peak_pressure_{k}"] for k in ("rolling", "geometric")]
     numbers["dent_indentation_peak_over_p0"] = peak[1] / numbers["dent_indentation_smooth_p0"]
     numbers["dent_indentation_peak_spread"] = (max(peak) - min(peak)) / max(peak)

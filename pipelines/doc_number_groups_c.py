@@ -336,7 +336,8 @@ def convergence_check(out: Path) -> dict[str, float]:
 #: linear-hardening case's increments with the cell mean, the σ11 read on the axis, the study
 #: with the configs' finer shipped grids, five and six increment levels at 32² × 12 cells, the
 #: linear-hardening case's `together` at h = 1, 1/2, 1/4 and 1/5, and its increments on the
-#: 80² × 48 grid from 20 + 10).
+#: 80² × 48 grid from 20 + 10; the press's `together` at h = 1, 2/3 and 1/2 and its increments
+#: at its shipped 96² × 128 cells).
 REFINED_TABLES = {
     "refined": ("convergence-refined-summary.csv", "convergence-refined.csv"),
     "layers4": ("convergence-refined-layers4-summary.csv", "convergence-refined-layers4.csv"),
@@ -349,6 +350,9 @@ REFINED_TABLES = {
     "incsix": ("convergence-increments-six-summary.csv", "convergence-increments-six.csv"),
     "steps": ("convergence-steps-summary.csv", "convergence-steps.csv"),
     "incgrid": ("convergence-increments-grid-summary.csv", "convergence-increments-grid.csv"),
+    "presssteps": ("convergence-press-steps-summary.csv", "convergence-press-steps.csv"),
+    "pressinc": ("convergence-press-increments-summary.csv",
+                 "convergence-press-increments.csv"),
 }
 #: Level tables whose levels are also compared with the `together` limits of
 #: ``data/convergence-shipped-summary.csv`` (``{tag}_..._level{L}_together_error``).
@@ -372,7 +376,9 @@ REFINED_QUANTITIES = {**CHECKED, "print_depth_refined": "print_depth_refined",
                       "residual_s11_axis_refined_at_1a": "s11_1a_refined",
                       "residual_s11_axis_refined_at_2a": "s11_2a_refined",
                       "residual_s11_axis_refined_at_0.25a": "s11_025a_refined",
-                      "residual_s11_axis_refined_at_1.5a": "s11_15a_refined"}
+                      "residual_s11_axis_refined_at_1.5a": "s11_15a_refined",
+                      "residual_s33_layer1_axis": "s33_layer1_axis",
+                      "residual_s33_layer1_extreme": "s33_layer1_extreme"}
 #: The columns of a summary row recorded: column -> key suffix.
 REFINED_COLUMNS = {"order": "order", "previous_order": "previous_order", "limit": "limit",
                    "relative_uncertainty": "uncertainty", "shipped_error": "shipped_error"}

@@ -2,8 +2,10 @@
 
 ``python pipelines/press_run.py NX NZ SAMPLING [OVERRIDE ...] [--out DIR]``
 
-SAMPLING is ``solver.stress_sampling`` (1: stresses at the cell centres, as shipped; 2 or
-more: cell means). Prints the run time, print depth, largest εp, peak pressure, the residual
+SAMPLING is ``solver.stress_sampling`` (1: stresses at the cell centres; 2 or more: cell
+means, as the press ships since issue #32). The increments are the 10 + 3 of the study's base
+(those of ``notes/press-near-surface.md``; an override ``load_path.0.increments=20`` changes
+them). Prints the run time, print depth, largest εp, peak pressure, the residual
 σ33 and εp on the axis (first 20 layers) and the first layer's σ33 (axis, minimum) and writes
 the final fields to DIR/run_<tag>.npz (default DIR: runs/press-near-surface); a file already
 there is kept, and the run refused.
@@ -21,7 +23,12 @@ import numpy as np
 from sacflow.config.solver_inputs import solver_inputs
 from sacflow.errors import InputError
 from sacflow.solver.simulation import Simulation
-from sacflow.studies.convergence import STUDY_CASES, base_case, shipped_discretisation
+from sacflow.studies.convergence import (
+    STUDY_CASES,
+    base_case,
+    base_increments_overrides,
+    shipped_discretisation,
+)
 
 CASE = STUDY_CASES["dent-from-indentation-press"]
 
@@ -45,7 +52,7 @@ def main(argv: list[str]) -> None:
         depth = shipped_discretisation(base_case(CASE)).depth
         case = base_case(CASE, [f"grid.nx={nx}", f"grid.ny={nx}", f"grid.nz={nz}",
                                 f"grid.depth={depth!r}", f"solver.stress_sampling={sampling}",
-                                *extra])
+                                *base_increments_overrides(CASE), *extra])
     except InputError as exc:
         sys.exit(str(exc))
     start = time.time()

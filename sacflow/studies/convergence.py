@@ -84,7 +84,9 @@ class StudyCase:
     the increments and cells of the study's base level (the anchor of its ladders,
     :func:`study_base`) in place of the case file's: the nano-indentations ship 20 + 10
     increments and finer grids since issue #32 (chosen from the study's ``together`` limits),
-    while their ladders stay those of the tables recorded at 64² × 24 cells and 10 + 5.
+    while their ladders stay those of the tables recorded at 64² × 24 cells and 10 + 5; the
+    press ships 96² × 128 cells with 20 + 6 increments and its ladders stay at 48² × 16 with
+    10 + 3.
     """
 
     name: str
@@ -99,6 +101,11 @@ class StudyCase:
 NANO_BASE_INCREMENTS = (10, 5)
 #: The ladders' base grid of the nano-indentations: surface cells per side, layers.
 NANO_BASE_GRID = (64, 24)
+#: The press's ladders' base (load + unload increments; surface cells per side, layers): the
+#: grid it shipped until issue #32 refined it (96² × 128 cells, 20 + 6 increments, the cell
+#: mean), and the anchor of its recorded tables.
+PRESS_BASE_INCREMENTS = (10, 3)
+PRESS_BASE_GRID = (48, 16)
 #: The perfectly plastic variant's stresses: the cell mean. With centre values its 48-layer
 #: levels, the shipped 650 mN grid's among them, do not finish (a checkerboard that nothing
 #: hardens against; docs/convergence.md).
@@ -117,7 +124,8 @@ STUDY_CASES: dict[str, StudyCase] = {
                   perfectly_plastic=True,
                   base_increments=NANO_BASE_INCREMENTS, base_grid=NANO_BASE_GRID),
         StudyCase("dent-from-indentation-press",
-                  ROOT / "pipelines" / "dent-from-indentation-press.toml"),
+                  ROOT / "pipelines" / "dent-from-indentation-press.toml",
+                  base_increments=PRESS_BASE_INCREMENTS, base_grid=PRESS_BASE_GRID),
     )
 }
 
@@ -155,13 +163,26 @@ class Discretisation:
     def overrides(self) -> list[str]:
         """Return the level as ``--set`` overrides (the box depth always explicit)."""
         return [f"grid.nx={self.nx}", f"grid.ny={self.nx}", f"grid.nz={self.nz}",
-                f"grid.depth={self.depth!r}",
-                *(f"load_path.{i}.increments={n}" for i, n in enumerate(self.increments))]
+                f"grid.depth={self.depth!r}", *increments_overrides(self.increments)]
 
     @property
     def total_increments(self) -> int:
         """Increments of the whole load path."""
         return sum(self.increments)
+
+
+def increments_overrides(increments: Sequence[int]) -> list[str]:
+    """Return ``--set`` overrides giving each load-path segment its number of increments."""
+    return [f"load_path.{i}.increments={n}" for i, n in enumerate(increments)]
+
+
+def base_increments_overrides(study_case: StudyCase) -> list[str]:
+    """Return overrides for the base increments of ``study_case`` (none if it has none of its own).
+
+    The scripts that run one case at grids of their own (``pipelines/press_run.py``,
+    ``pipelines/dent_hydrostatic.py``) keep the increments of their recorded numbers so.
+    """
+    return increments_overrides(study_case.base_increments or ())
 
 
 def shipped_discretisation(case: Case) -> Discretisation:
