@@ -336,8 +336,8 @@ def convergence_check(out: Path) -> dict[str, float]:
 #: linear-hardening case's increments with the cell mean, the σ11 read on the axis, the study
 #: with the configs' finer shipped grids, five and six increment levels at 32² × 12 cells, the
 #: linear-hardening case's `together` at h = 1, 1/2, 1/4 and 1/5, and its increments on the
-#: 80² × 48 grid from 20 + 10; the press's `together` at h = 1, 2/3 and 1/2 and its increments
-#: at its shipped 96² × 128 cells).
+#: 80² × 48 grid from 20 + 10; the press's `together` at h = 1, 2/3 and 1/2, its increments
+#: at its shipped 96² × 128 cells, and its lateral cells and layers from there with 40 + 12).
 REFINED_TABLES = {
     "refined": ("convergence-refined-summary.csv", "convergence-refined.csv"),
     "layers4": ("convergence-refined-layers4-summary.csv", "convergence-refined-layers4.csv"),
@@ -353,6 +353,7 @@ REFINED_TABLES = {
     "presssteps": ("convergence-press-steps-summary.csv", "convergence-press-steps.csv"),
     "pressinc": ("convergence-press-increments-summary.csv",
                  "convergence-press-increments.csv"),
+    "pressgrid": ("convergence-press-grid-summary.csv", "convergence-press-grid.csv"),
 }
 #: Level tables whose levels are also compared with the `together` limits of
 #: ``data/convergence-shipped-summary.csv`` (``{tag}_..._level{L}_together_error``).
@@ -372,6 +373,7 @@ REFINED_QUANTITIES = {**CHECKED, "print_depth_refined": "print_depth_refined",
                       "max_plastic_strain_refined_depth": "max_eqps_refined_depth",
                       "residual_s11_axis_min_refined": "s11_min_refined",
                       "residual_s11_axis_at_1a": "s11_1a",
+                      "residual_s11_axis_at_0.5a": "s11_05a",
                       "residual_s11_axis_refined_at_0.5a": "s11_05a_refined",
                       "residual_s11_axis_refined_at_1a": "s11_1a_refined",
                       "residual_s11_axis_refined_at_2a": "s11_2a_refined",
