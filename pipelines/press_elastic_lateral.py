@@ -13,12 +13,14 @@ convergence study reads its profile, with its error against Hertz's σr on the a
 
 from __future__ import annotations
 
+import argparse
 import math
 import sys
 import time
 
 from sacflow.compare.fields import quadratic_at
 from sacflow.config.solver_inputs import simulation_for
+from sacflow.errors import SacflowError
 from sacflow.studies.convergence import STUDY_CASES, base_case, shipped_discretisation
 
 CASE = STUDY_CASES["dent-from-indentation-press"]
@@ -36,13 +38,19 @@ def hertz_radial_stress(z_over_a: float, nu: float) -> float:
 
 def main(argv: list[str]) -> None:
     """Run each lateral grid and print σ11 on the axis with its error against Hertz."""
-    grids = [int(n) for n in argv] or [48, 72, 96, 144]
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("grids", nargs="*", type=int, default=[48, 72, 96, 144], metavar="NX",
+                        help="surface cells per side (default 48 72 96 144)")
+    grids = parser.parse_args(argv).grids
     depth = shipped_discretisation(base_case(CASE)).depth
     for nx in grids:
-        case = base_case(CASE, ['body.hardening={law = "elastic"}', f"grid.nx={nx}",
-                                f"grid.ny={nx}", f"grid.nz={LAYERS}", f"grid.depth={depth!r}",
-                                "load_path.0.increments=1", "load_path.1.increments=1",
-                                "output.volume_every=1"])
+        try:
+            case = base_case(CASE, ['body.hardening={law = "elastic"}', f"grid.nx={nx}",
+                                    f"grid.ny={nx}", f"grid.nz={LAYERS}",
+                                    f"grid.depth={depth!r}", "load_path.0.increments=1",
+                                    "load_path.1.increments=1", "output.volume_every=1"])
+        except SacflowError as exc:  # a grid the case cannot run: the message, no traceback
+            raise SystemExit(f"error: {exc}") from None
         hertz = case.hertz()
         start = time.time()
         sim = simulation_for(case)
