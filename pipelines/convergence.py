@@ -6,8 +6,9 @@
         [--check STEP [--against CSV] [--check-table CSV]] [--advise [--target E]]
 
 For each case (:data:`sacflow.studies.convergence.STUDY_CASES`) and each refinement sequence
-(:data:`sacflow.studies.convergence.SEQUENCES`: lateral cells, layers, box depth, increments,
-all together), runs the levels in this process with whatever ``sacflow`` is importable, reads
+(:data:`sacflow.studies.convergence.SEQUENCES`: lateral cells, layers, box depth, lateral
+window at the same cells, increments, all together), runs the levels in this process with
+whatever ``sacflow`` is importable, reads
 the quantities of each finished run (approach, print depth, largest εp and its depth, residual
 σ11 on the axis, residual σ33 / hydrostatic stress of the top layers, peak pressure), and
 writes
@@ -326,6 +327,8 @@ def level_near(sequence: Refinement, base: Discretisation, step: float) -> str:
     increments = "+".join(str(at("increments", n)) for n in coarsest.increments)
     if "depth" in sequence.start:
         return f"box depth × {coarsest.depth / base.depth / step:.3g} of the shipped one"
+    if "window" in sequence.start:
+        return f"window × {coarsest.nx / base.nx / step:.3g} of the shipped one, same cells"
     return f"{at('nx', coarsest.nx)}² × {at('nz', coarsest.nz)} cells, increments {increments}"
 
 
@@ -341,8 +344,9 @@ def print_plan(runner: LevelRunner, base: Discretisation, shipped: Discretisatio
     """Print the levels of each sequence of one case, each marked cached or to run."""
     def line(level: Discretisation) -> str:
         state = "cached" if runner.path(level).exists() else "to run"
-        return (f"{level.nx:4d}² × {level.nz:3d} layers, depth {level.depth * 1e6:8.3f} µm, "
-                f"increments {'+'.join(map(str, level.increments)):>7s}: {state}")
+        window = "" if level.half_width is None else f", window {level.half_width:g} a"
+        return (f"{level.nx:4d}² × {level.nz:3d} layers, depth {level.depth * 1e6:8.3f} µm"
+                f"{window}, increments {'+'.join(map(str, level.increments)):>7s}: {state}")
 
     print(f"{runner.study_case.name}: shipped {line(shipped)}")
     if base != shipped:
@@ -371,8 +375,9 @@ class LevelRunner:
                           "source": self.fingerprint}, sort_keys=True)
         digest = hashlib.sha256(key.encode()).hexdigest()[:16]
         increments = "+".join(str(n) for n in level.increments)
+        window = "" if level.half_width is None else f"-w{level.half_width:.4g}a"
         return self.cache / (f"{self.study_case.name}-nx{level.nx}-nz{level.nz}-"
-                             f"d{level.depth * 1e6:.4g}um-inc{increments}-{digest}.json")
+                             f"d{level.depth * 1e6:.4g}um{window}-inc{increments}-{digest}.json")
 
     def record(self, level: Discretisation) -> dict[str, Any] | None:
         """The record of ``level`` (:meth:`run`): cached, else run (None when the run fails)."""

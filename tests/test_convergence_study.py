@@ -2,7 +2,9 @@
 
 * :func:`sacflow.studies.richardson.extrapolate` recovers p and f∞ of synthetic sequences
   f = f∞ + C hᵖ (any ratio, either sign of C), flags oscillating, diverging and unchanged ones;
-* the refinement sequences build the levels they say (box depth fixed, or scaled with the layers);
+* the refinement sequences build the levels they say (box depth fixed, or scaled with the layers;
+  the window widened at the same cells);
+* ``pipelines/press_edge_position.py`` reads the contact edge inside its cell and runs its windows;
 * ``pipelines/convergence.py --quick`` on one case and two sequences (a few seconds): the tables'
   columns, one row per level and quantity, a second run read from the cache, no table
   overwritten without ``--overwrite``;
@@ -20,7 +22,9 @@ import math
 import re
 from dataclasses import replace
 from pathlib import Path
+from types import SimpleNamespace
 
+import numpy as np
 import pytest
 
 from sacflow.studies.convergence import (
@@ -207,6 +211,30 @@ def test_a_step_between_the_levels_scales_every_refined_number():
         together.at_step(BASE, 0.3)  # 32 / 0.3 cells
     with pytest.raises(ConvergenceError, match="> 0"):
         together.at_step(BASE, 0.0)
+
+
+def test_the_window_sequence_widens_the_window_at_the_same_cells():
+    """``window`` scales grid.half_width and the surface cells together: the cell size stays,
+    its first level is the base's run, and a case giving its window as an extent is refused."""
+    base = Discretisation(48, 64, 5e-4, (20, 6), case_half_width=3.0)
+    window = SEQUENCES["window"]
+    levels = window.levels(base)
+    assert [(d.nx, d.half_width) for d in levels] == [(48, None), (72, 4.5), (108, 6.75)]
+    assert levels[0] == base and levels[0].overrides() == base.overrides()
+    assert "grid.half_width=4.5" in levels[1].overrides()
+    assert {d.nz for d in levels} == {64} and {d.increments for d in levels} == {(20, 6)}
+    assert window.at_step(base, 1 / 2) == replace(base, nx=96, half_width=6.0)
+    assert window.formal_order is None
+    with pytest.raises(ConvergenceError, match="grid.extent"):
+        window.levels(replace(base, case_half_width=None))
+    study = STUDY_CASES["dent-from-indentation-press"]
+    shipped = shipped_discretisation(base_case(study))
+    assert shipped.case_half_width == 3.0 and shipped.half_width is None
+    cells = []
+    for level in window.levels(replace(shipped, nx=48, nz=16)):
+        case = base_case(study, level.overrides())
+        cells.append(2.0 * case.grid.half_width * case.hertz().a / case.grid.nx)
+    assert cells == pytest.approx([cells[0]] * 3, rel=1e-12)  # the same cells, a wider window
 
 
 def test_a_checked_run_is_compared_with_the_prediction_at_its_step():
@@ -418,3 +446,55 @@ def test_quick_study_at_chosen_steps(tmp_path, capsys):
     with pytest.raises(SystemExit):
         pipeline.main([*argv, "--steps", "1/2,1/2,1/3"])
     assert "decreasing steps" in capsys.readouterr().err
+
+
+EDGE_SCRIPT = Path(__file__).parent.parent / "pipelines" / "press_edge_position.py"
+
+
+def load_edge_script():
+    spec = importlib.util.spec_from_file_location("press_edge_position", EDGE_SCRIPT)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.mark.parametrize("share", [1.0, 0.5, 0.25])
+def test_the_contact_edge_lies_its_cells_share_beyond_the_inner_face(share):
+    """The outermost loaded cell, loaded at ``share`` of the cell inside it, puts the edge that
+    share of a cell beyond its inner face; the row is read on either side of the axis alike."""
+    module = load_edge_script()
+    h = 2e-6
+    x = (np.arange(16) - 7.5) * h  # the axis on a cell corner
+    pressure = np.zeros((16, 16))
+    pressure[3:13, :] = 8e9  # loaded cells out to 5 cells from the axis on each side
+    pressure[12, :] = share * 8e9
+    pressure[3, :] = share * 8e9
+    state = SimpleNamespace(surface={"pressure": pressure}, load_x1=0.0, load_x2=0.0)
+    assert module.contact_edge(state, x, x) == pytest.approx((4 + share) * h, rel=1e-12)
+
+
+def test_the_edge_script_runs_its_windows_and_keeps_a_table(tmp_path, capsys):
+    """Two tiny windows give two rows with the study's quantities and the edge's place in its
+    cell; a second run does not replace the table, and a grid the press cannot run stops before
+    anything runs."""
+    module = load_edge_script()
+    table = tmp_path / "edge.csv"
+    module.main(["--runs", "26:3.0", "26:3.1", "--layers", "8", "--increments", "2", "1",
+                 "--table", str(table)])
+    rows = list(csv.DictReader(table.open()))
+    assert [float(r["half_width"]) for r in rows] == [3.0, 3.1]
+    for r in rows:
+        assert 0.0 <= float(r["edge_in_cell"]) < 1.0
+        cell = float(r["cell"])
+        assert float(r["contact_radius"]) / cell % 1.0 == pytest.approx(float(r["edge_in_cell"]))
+        assert float(r["print_depth_refined"]) > 0.0
+    assert float(rows[1]["cell"]) == pytest.approx(float(rows[0]["cell"]) * 3.1 / 3.0)
+    before = table.read_bytes()
+    with pytest.raises(SystemExit, match="exists; nothing was changed"):
+        module.main(["--runs", "26:3.0", "--table", str(table)])
+    with pytest.raises(SystemExit, match="grid.nx"):
+        module.main(["--runs", "26:3.0", "24:3.1", "--layers", "8", "--table",
+                     str(tmp_path / "other.csv")])
+    assert table.read_bytes() == before and not (tmp_path / "other.csv").exists()
+    assert "edge at" in capsys.readouterr().out

@@ -152,18 +152,23 @@ class Discretisation:
     """The numbers of one level of a sequence.
 
     ``nx`` = ``ny`` surface cells, ``nz`` layers over ``depth`` [m], and the increments of each
-    load-path segment.
+    load-path segment. ``half_width`` is the lateral window in Hertz radii when a level sets
+    its own (the ``window`` sequence), None for the case's; ``case_half_width`` is the case's
+    window (None when the case gives its window as ``grid.extent``), what ``window`` scales.
     """
 
     nx: int
     nz: int
     depth: float
     increments: tuple[int, ...]
+    half_width: float | None = None
+    case_half_width: float | None = None
 
     def overrides(self) -> list[str]:
         """Return the level as ``--set`` overrides (the box depth always explicit)."""
+        window = [] if self.half_width is None else [f"grid.half_width={self.half_width!r}"]
         return [f"grid.nx={self.nx}", f"grid.ny={self.nx}", f"grid.nz={self.nz}",
-                f"grid.depth={self.depth!r}", *increments_overrides(self.increments)]
+                f"grid.depth={self.depth!r}", *window, *increments_overrides(self.increments)]
 
     @property
     def total_increments(self) -> int:
@@ -188,8 +193,10 @@ def base_increments_overrides(study_case: StudyCase) -> list[str]:
 def shipped_discretisation(case: Case) -> Discretisation:
     """Return the discretisation ``case`` runs with, its automatic box depth made explicit."""
     depth = solver_inputs(case).grid.depth
+    window = None if case.grid.extent is not None else float(case.grid.half_width)
     return Discretisation(case.grid.nx, case.grid.nz, float(depth),
-                          tuple(int(getattr(seg, "increments", 1)) for seg in case.load_path))
+                          tuple(int(getattr(seg, "increments", 1)) for seg in case.load_path),
+                          case_half_width=window)
 
 
 #: Override keys that set the cells of the grid (the whole table, or its counts).
@@ -217,7 +224,7 @@ def study_base(study_case: StudyCase, shipped: Discretisation,
 
 
 #: The discretisation parameters a sequence may refine.
-PARAMETERS = ("nx", "nz", "depth", "increments")
+PARAMETERS = ("nx", "nz", "depth", "window", "increments")
 
 
 @dataclass(frozen=True)
@@ -227,8 +234,10 @@ class Refinement:
     ``start`` maps the refined parameters (:data:`PARAMETERS`) to the exponent of ``ratio`` of
     the first level relative to the shipped discretisation (-1: the first level is one ratio
     coarser than the shipped one). ``depth`` scales the box depth and the layer count together
-    (same layer thickness): its ``h`` is the inverse box depth. ``formal_order`` is the order the
-    scheme should have in ``h`` (None when there is none to expect).
+    (same layer thickness): its ``h`` is the inverse box depth. ``window`` scales the lateral
+    window (``grid.half_width``) and the surface cells together (same cell size): its ``h`` is
+    the inverse window. ``formal_order`` is the order the scheme should have in ``h`` (None when
+    there is none to expect).
     """
 
     name: str
@@ -280,8 +289,25 @@ class Refinement:
 
         nz = scaled("depth", scaled("nz", base.nz))
         depth = base.depth * (factor(self.start["depth"]) if "depth" in self.start else 1.0)
-        return replace(base, nx=scaled("nx", base.nx), nz=nz, depth=depth,
+        return replace(base, nx=scaled("window", scaled("nx", base.nx)), nz=nz, depth=depth,
+                       half_width=self._window(base, factor),
                        increments=tuple(scaled("increments", n) for n in base.increments))
+
+    def _window(self, base: Discretisation, factor: Callable[[int], float]) -> float | None:
+        """Return the window of a level: ``base``'s, scaled when this sequence refines it.
+
+        None when that is the case's own window, so that such a level is the base's run.
+        """
+        if "window" not in self.start:
+            return base.half_width
+        own = base.half_width if base.half_width is not None else base.case_half_width
+        if own is None:
+            raise ConvergenceError(
+                f"sequence {self.name!r} scales grid.half_width, but the case sets its window "
+                "as grid.extent: give it as grid.half_width (--set grid.extent=null "
+                "--set grid.half_width=...) to refine the window")
+        scale = factor(self.start["window"])
+        return None if scale == 1.0 and base.half_width is None else own * scale
 
     def step_size(self, k: int) -> float:
         """Discretisation parameter h of level ``k`` relative to the coarsest level: r⁻ᵏ."""
@@ -296,6 +322,8 @@ SEQUENCES: dict[str, Refinement] = {
                    "layers nz over the same box depth, surface cells and increments fixed"),
         Refinement("depth", 1.5, {"depth": 0}, None,
                    "box depth and layers together (same layer thickness); h = 1 / depth"),
+        Refinement("window", 1.5, {"window": 0}, None,
+                   "lateral window and surface cells together (same cell size); h = 1 / window"),
         Refinement("increments", 2.0, {"increments": 0}, 2.0,
                    "load and unload increments together, grid fixed"),
         Refinement("together", 2.0, {"nx": -1, "nz": -1, "increments": 0}, 2.0,
