@@ -304,8 +304,8 @@ class Refinement:
         if own is None:
             raise ConvergenceError(
                 f"sequence {self.name!r} scales grid.half_width, but the case sets its window "
-                "as grid.extent: give it as grid.half_width (--set grid.extent=null "
-                "--set grid.half_width=...) to refine the window")
+                "as grid.extent: give it as grid.half_width (in Hertz radii) in the case file "
+                "to refine the window")
         scale = factor(self.start["window"])
         return None if scale == 1.0 and base.half_width is None else own * scale
 
