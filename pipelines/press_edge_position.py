@@ -26,7 +26,6 @@ size): 0 at the inner face, 1 at the outer one.
 from __future__ import annotations
 
 import argparse
-import csv
 import math
 import sys
 import time
@@ -39,6 +38,7 @@ from sacflow.config.solver_inputs import simulation_for
 from sacflow.errors import SacflowError
 from sacflow.solver.state import State
 from sacflow.studies.convergence import STUDY_CASES, base_case, measure, shipped_discretisation
+from sacflow.studies.convergence_table import write_csv
 
 CASE = STUDY_CASES["dent-from-indentation-press"]
 #: Default runs (cells per side, window in Hertz radii): at 48² cells the windows 3 to 3.35 a
@@ -135,12 +135,10 @@ def main(argv: list[str]) -> None:
               f"edge at {row['edge_in_cell']:.2f} of its cell, {row['seconds']:.0f} s; {shown}",
               flush=True)
     if args.table is not None:
-        partial = args.table.with_name(args.table.name + ".partial")
-        with partial.open("w", newline="") as handle:
-            writer = csv.DictWriter(handle, fieldnames=list(rows[0]))
-            writer.writeheader()
-            writer.writerows(rows)
-        partial.replace(args.table)
+        try:
+            write_csv(args.table, rows, list(rows[0]), overwrite=args.overwrite)
+        except SacflowError as exc:  # the table appeared while the runs went on
+            raise SystemExit(f"error: {exc}") from None
 
 
 if __name__ == "__main__":

@@ -277,12 +277,16 @@ def test_source_fingerprint_names_the_numerical_code():
     assert source_fingerprint(("solver",)) != source_fingerprint(("kernels",))
 
 
-def load_pipeline():
-    spec = importlib.util.spec_from_file_location("convergence_pipeline", PIPELINE)
+def load_script(path: Path, name: str):
+    spec = importlib.util.spec_from_file_location(name, path)
     assert spec is not None and spec.loader is not None
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
+
+
+def load_pipeline():
+    return load_script(PIPELINE, "convergence_pipeline")
 
 
 def test_the_ladders_keep_their_base_while_the_configs_ship_finer_discretisations():
@@ -452,11 +456,7 @@ EDGE_SCRIPT = Path(__file__).parent.parent / "pipelines" / "press_edge_position.
 
 
 def load_edge_script():
-    spec = importlib.util.spec_from_file_location("press_edge_position", EDGE_SCRIPT)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_script(EDGE_SCRIPT, "press_edge_position")
 
 
 @pytest.mark.parametrize("share", [1.0, 0.5, 0.25])
