@@ -141,6 +141,18 @@ class SolverOptions(Model):
         "docs/convergence.md); needs stress_sampling = 1",
     )
 
+    traction_beyond_box: bool = Field(
+        False,
+        description="whether the residual stress also removes the surface traction that the "
+        "cuboids leave beyond the box's footprint: false (default, as the seed) removes it "
+        "over the footprint only, so the contact window must reach well beyond the plastic "
+        "zone (at the shipped windows the rest costs the residual stress on the axis up to "
+        "a few per cent, docs/convergence.md); true adds Love's stresses of the "
+        "traction over a footprint three times as wide, computed by a coarse operator of "
+        "super-cells and interpolated to the cells (docs/convergence.md); an iteration "
+        "costs more (docs/performance.md)",
+    )
+
     @model_validator(mode="after")
     def _quadrature_with_centre_values(self) -> SolverOptions:
         if self.surface_correction == "quadrature" and self.stress_sampling != 1:

@@ -123,6 +123,7 @@ def solver_inputs(case: Case, surface: MeasuredSurface | None = None,
         inclusion_max_iterations=opts.inclusion_max_iterations,
         stress_sampling=opts.stress_sampling,
         surface_correction=opts.surface_correction,
+        traction_beyond_box=opts.traction_beyond_box,
     )
     output = OutputPlan(case.output.volume_every, tuple(case.output.every_step))
     conditions = InitialConditions(
@@ -266,7 +267,7 @@ def estimate_case_memory(case: Case) -> MemoryEstimate:
     volume state), whatever its hardening.
     """
     return estimate_memory(case_body_grid(case), _eigenstrain_operator(case),
-                           _anderson_depth(case))
+                           _anderson_depth(case), _far_traction(case))
 
 
 def check_case_memory(case: Case, available: int | None = None) -> MemoryEstimate:
@@ -278,4 +279,9 @@ def check_case_memory(case: Case, available: int | None = None) -> MemoryEstimat
         When the estimate exceeds the available memory (default: available now).
     """
     return check_memory(case_body_grid(case), _eigenstrain_operator(case), _anderson_depth(case),
-                        available)
+                        available, _far_traction(case))
+
+
+def _far_traction(case: Case) -> bool:
+    """Whether a run of ``case`` builds the coarse operator of the traction beyond the box."""
+    return _eigenstrain_operator(case) and case.solver.traction_beyond_box

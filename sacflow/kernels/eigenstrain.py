@@ -57,7 +57,11 @@ wrap-around period, nothing is mirrored, and the spectra are real by constructio
 
 The traction ``p`` of step 3 is taken over the box footprint (``n1 × n2`` cells): the box must
 extend laterally beyond the plastic zone by a margin (the traction decays like ``r⁻³``); the
-solver sizes it so. One application: 2 × 2 depth transforms of the ``n1 n2`` footprint lines,
+solver sizes it so. What lies beyond is missing from the stress (at the shipped windows up to
+a few per cent of the residual stress on the axis); with ``traction_beyond_box`` a coarse,
+wider operator adds it (:mod:`sacflow.kernels.far_traction`).
+
+One application: 2 × 2 depth transforms of the ``n1 n2`` footprint lines,
 6 forward and 6 inverse pruned 2-D FFTs on ``N + 1 ≈ 2 n3`` planes, two small 2-D FFTs, one
 contraction over depth for the traction (and the displacement) and the compiled products.
 
@@ -77,7 +81,7 @@ from __future__ import annotations
 import functools
 from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
-from typing import Any, Literal, overload
+from typing import TYPE_CHECKING, Any, Literal, overload
 
 import numpy as np
 
@@ -90,6 +94,9 @@ from sacflow.kernels.traction_stencil import TractionStencil
 from sacflow.machine.kernel_cache import cached_arrays
 from sacflow.machine.resources import available_memory
 from sacflow.machine.threads import contiguous_ranges, over_ranges
+
+if TYPE_CHECKING:
+    from sacflow.kernels.far_traction import FarTraction
 
 __all__ = [
     "HalfSpaceEigenstrain",
@@ -125,6 +132,10 @@ class HalfSpaceEigenstrain:
         Add the part of the surface-traction correction that centre sampling misses near the
         surface (:class:`~sacflow.kernels.traction_stencil.TractionStencil`); needs
         ``stress_sampling = 1``. The kernel spectra (and their cache) are the same.
+    traction_beyond_box : bool, optional
+        Also remove the surface traction beyond the box's footprint, computed by a coarse,
+        wider operator (:class:`~sacflow.kernels.far_traction.FarTraction`); without it the
+        box must reach far beyond the plastic zone (module notes).
 
     Attributes
     ----------
@@ -148,6 +159,7 @@ class HalfSpaceEigenstrain:
         max_bytes: int | None = None,
         stress_sampling: int = 1,
         traction_quadrature: bool = False,
+        traction_beyond_box: bool = False,
     ):
         from sacflow.errors import GridTooLargeError
 
@@ -212,6 +224,13 @@ class HalfSpaceEigenstrain:
         if traction_quadrature:
             self._stencil = TractionStencil(self.shape, self.spacing, self.nu, self.mu,
                                             self.threads)
+        self._far: FarTraction | None = None
+        self._far_stress: np.ndarray | None = None  # its stress, from surface_fields
+        if traction_beyond_box:
+            from sacflow.kernels.far_traction import FarTraction
+
+            self._far = FarTraction(self.shape, self.spacing, self.E, self.nu, self.threads,
+                                    max_bytes)
 
     def cache_parameters(self) -> dict[str, Any]:
         """Everything that determines the kernel spectra (the key of the disk cache).
@@ -327,6 +346,8 @@ class HalfSpaceEigenstrain:
             self._top = self._stencil.top(eps)
         fields = self._surface_fields(spec, self.surface_spectra if with_displacement
                                       else self.surface_spectra[:1])
+        if self._far is not None:  # its own operator and buffers: the spectra here stay
+            self._far_stress = self._far.stress(eps)
         self._spectra_of_eps = True
         return fields[0], (fields[1] if with_displacement else None)
 
@@ -357,7 +378,21 @@ class HalfSpaceEigenstrain:
                     stress, weight=n2 * n3 * 6)
         if self._stencil is not None and self._top is not None:
             stress[:, :, :self._stencil.targets] += self._stencil.apply(self._top)
+        if self._far is not None and self._far_stress is not None:
+            stress += self._far_stress
+            self._far_stress = None
         return stress
+
+    def traction_stress(self, traction: np.ndarray) -> np.ndarray:
+        """Stress [Pa] (n1, n2, n3, 6) of removing the surface traction ``traction`` alone.
+
+        Love's stresses of a surface pressure equal to ``traction`` [Pa] (n1, n2), without any
+        eigenstrain (the products of :meth:`stress` on zero spectra).
+        """
+        self._lateral.spectrum[...] = 0.0
+        self._spectra_of_eps = True
+        self._top = self._far_stress = None  # the traction alone: no eigenstrain's terms
+        return self.stress(traction)
 
 
 @functools.lru_cache(maxsize=4)

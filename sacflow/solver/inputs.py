@@ -188,7 +188,8 @@ class SolverSettings:
     ``surface_correction`` how the residual stress removes the surface traction of the cuboids:
     sampled at the surface cells' centres (``"centre"``) or with its variation within the cells
     of the first layers' cuboids integrated (``"quadrature"``,
-    :mod:`sacflow.kernels.traction_stencil`).
+    :mod:`sacflow.kernels.traction_stencil`); ``traction_beyond_box`` whether it also removes
+    the traction beyond the box's footprint (:mod:`sacflow.kernels.far_traction`).
     """
 
     contact_tolerance: float = 1e-10
@@ -206,6 +207,7 @@ class SolverSettings:
     return_integration: Literal["extrapolated", "backward_euler"] = "extrapolated"
     stress_sampling: int = 1
     surface_correction: Literal["centre", "quadrature"] = "centre"
+    traction_beyond_box: bool = False
 
 
 @dataclass(frozen=True)

@@ -211,6 +211,26 @@ def _eigenstrain(grid: BodyGrid) -> tuple[MemoryItem, MemoryItem]:
     return operator, setup
 
 
+def _far_traction(grid: BodyGrid) -> tuple[MemoryItem, MemoryItem]:
+    """Size the coarse, wider operator of the traction beyond the box, and its set-up.
+
+    :class:`~sacflow.kernels.far_traction.FarTraction`: an eigenstrain operator of super-cells
+    on a footprint three times the box's, and the stress it adds (one volume tensor field,
+    kept from the first half of an application to the second).
+    """
+    from sacflow.kernels.eigenstrain_memory import operator_bytes, setup_bytes
+    from sacflow.kernels.far_traction import FarTraction
+
+    shape = FarTraction.shape_for((*grid.body, grid.nz))
+    operator = MemoryItem(
+        "far-traction operator", operator_bytes(shape) + _tensor_bytes(grid),
+        f"the traction beyond the box: {shape[0]} × {shape[1]} × {shape[2]} super-cells",
+    )
+    setup = MemoryItem("far-traction set-up", setup_bytes(shape),
+                       "its kernel fields and spectra while it is built")
+    return operator, setup
+
+
 def _tensor_bytes(grid: BodyGrid) -> int:
     """Bytes of one volume tensor field (6 components) on the body grid."""
     return COMPONENTS * FLOAT * grid.body[0] * grid.body[1] * grid.nz
@@ -255,7 +275,8 @@ def _states(grid: BodyGrid, plastic: bool) -> MemoryItem:
     )
 
 
-def estimate_memory(grid: BodyGrid, plastic: bool, anderson_depth: int) -> MemoryEstimate:
+def estimate_memory(grid: BodyGrid, plastic: bool, anderson_depth: int,
+                    far_traction: bool = False) -> MemoryEstimate:
     """Estimated peak resident memory of a run [bytes], by item.
 
     The peak is that of the heavier of two phases: the set-up (operators built, with the
@@ -270,6 +291,9 @@ def estimate_memory(grid: BodyGrid, plastic: bool, anderson_depth: int) -> Memor
         Whether the body can yield (the eigenstrain operator and the plastic state).
     anderson_depth : int
         Anderson mixing history depth of the plastic fixed point (0: plain sweeps).
+    far_traction : bool, optional
+        Whether the eigenstrain operator removes the traction beyond the box
+        (``solver.traction_beyond_box``: a second, coarse operator).
 
     Returns
     -------
@@ -293,6 +317,10 @@ def estimate_memory(grid: BodyGrid, plastic: bool, anderson_depth: int) -> Memor
         phases.append([*base, eigen_op, eigen_setup])
         state, contingent = _solver_state(grid, anderson_depth)
         running += [eigen_op, state]
+        if far_traction:
+            far_op, far_setup = _far_traction(grid)
+            phases.append([*base, eigen_op, far_op, far_setup])
+            running.append(far_op)
     phases.append(running)
     heaviest = max(phases, key=lambda phase: sum(item.nbytes for item in phase))
     items = sorted(heaviest, key=lambda item: item.nbytes, reverse=True)
@@ -303,12 +331,12 @@ def estimate_memory(grid: BodyGrid, plastic: bool, anderson_depth: int) -> Memor
 
 
 def check_memory(grid: BodyGrid, plastic: bool, anderson_depth: int,
-                 available: int | None = None) -> MemoryEstimate:
+                 available: int | None = None, far_traction: bool = False) -> MemoryEstimate:
     """Estimate the memory of a run and refuse it when the machine does not have it.
 
     Parameters
     ----------
-    grid, plastic, anderson_depth
+    grid, plastic, anderson_depth, far_traction
         As for :func:`estimate_memory`.
     available : int, optional
         Bytes available; default :func:`available_memory` now.
@@ -324,7 +352,7 @@ def check_memory(grid: BodyGrid, plastic: bool, anderson_depth: int,
         When the estimate exceeds the available memory; the message gives both, the largest
         items and the fix (fewer cells, a shorter rolled track).
     """
-    estimate = estimate_memory(grid, plastic, anderson_depth)
+    estimate = estimate_memory(grid, plastic, anderson_depth, far_traction)
     available = available_memory() if available is None else int(available)
     if estimate.total > available:
         raise GridTooLargeError(_too_large(estimate, available))

@@ -62,13 +62,16 @@ class Operators:
     traction_quadrature : bool
         Whether the residual stress integrates the surface traction of the first layers'
         cuboids over each surface cell (:mod:`sacflow.kernels.traction_stencil`).
+    traction_beyond_box : bool
+        Whether it also removes the surface traction beyond the box's footprint
+        (:mod:`sacflow.kernels.far_traction`).
     """
 
     def __init__(self, window: tuple[int, int], body_shape: tuple[int, int],
                  cell: tuple[float, float], nz: int, dz: float, E: float, nu: float,
                  e_star: float, traction: tuple[float, float] | None, plastic: bool,
                  threads: int | None, stress_sampling: int = 1,
-                 traction_quadrature: bool = False) -> None:
+                 traction_quadrature: bool = False, traction_beyond_box: bool = False) -> None:
         self.body_shape = body_shape
         self.stress_sampling = stress_sampling
         self.cell = cell
@@ -99,6 +102,7 @@ class Operators:
             self.eigen = HalfSpaceEigenstrain(
                 (*body_shape, nz), (dx1, dx2, dz), E, nu, threads=threads,
                 stress_sampling=stress_sampling, traction_quadrature=traction_quadrature,
+                traction_beyond_box=traction_beyond_box,
             )
 
     def contact_stress_parameters(self) -> dict[str, Any]:

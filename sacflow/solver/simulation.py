@@ -97,7 +97,8 @@ class Simulation:
                 grid.window, self.body_shape, spec.cell, self.nz, self.dz, material.E,
                 material.nu, inputs.contact.e_star, inputs.contact.traction, eigenstrains,
                 inputs.settings.fft_threads, inputs.settings.stress_sampling,
-                inputs.settings.surface_correction == "quadrature")
+                inputs.settings.surface_correction == "quadrature",
+                inputs.settings.traction_beyond_box)
         initial = inputs.initial
         self.increments = IncrementSolver(self.operators, self.geometry, material,
                                           inputs.settings, self.coords.x3, initial.stress,
