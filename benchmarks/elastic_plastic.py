@@ -11,7 +11,11 @@ from a loaded state, where the step-doubled return (``solver.return_integration 
 increment from rest is a straight path from zero: one return). Prints JSON, with the time per
 plastic iteration and the plastic zone's share.
 
-Usage: ``python benchmarks/elastic_plastic.py [--skip-case] [n ...]`` (default 32 64).
+With ``--traction-beyond-box`` every run sets ``solver.traction_beyond_box = true`` (the
+surface traction beyond the box removed by a second, coarse operator): the cost of that option.
+
+Usage: ``python benchmarks/elastic_plastic.py [--skip-case] [--traction-beyond-box] [n ...]``
+(default 32 64).
 """
 
 from __future__ import annotations
@@ -23,13 +27,15 @@ from _common import ROOT, emit, hertz_step_case, isolated
 
 
 def one_step(n: int, scheme: str = "coupled", hardening: str = "mild",
-             increments: int = 1) -> dict:
+             increments: int = 1, beyond_box: bool = False) -> dict:
     import numpy as np
 
     from sacflow.config.solver_inputs import simulation_for
     from sacflow.storage.case_file import case_from_dict
 
-    case = case_from_dict(hertz_step_case(n, scheme, hardening, increments))
+    spec = hertz_step_case(n, scheme, hardening, increments)
+    spec["solver"]["traction_beyond_box"] = beyond_box
+    case = case_from_dict(spec)
     t0 = time.perf_counter()
     sim = simulation_for(case)
     setup = time.perf_counter() - t0
@@ -47,6 +53,7 @@ def one_step(n: int, scheme: str = "coupled", hardening: str = "mild",
                       f"{n}x{n}x{n // 2}"),
         "scheme": scheme,
         "hardening": hardening,
+        "traction_beyond_box": beyond_box,
         "cuboids": cuboids,
         "setup_s": round(setup, 3),
         "step_s": round(wall, 3),
@@ -60,13 +67,13 @@ def one_step(n: int, scheme: str = "coupled", hardening: str = "mild",
     }
 
 
-def full_case(path: str) -> dict:
+def full_case(path: str, beyond_box: bool = False) -> dict:
     import numpy as np
 
     from sacflow.config.solver_inputs import simulation_for
     from sacflow.storage.case_file import load_case
 
-    case = load_case(path)
+    case = load_case(path, [f"solver.traction_beyond_box={str(beyond_box).lower()}"])
     t0 = time.perf_counter()
     sim = simulation_for(case)
     setup = time.perf_counter() - t0
@@ -75,6 +82,7 @@ def full_case(path: str) -> dict:
     wall = time.perf_counter() - t0
     return {
         "case": case.name,
+        "traction_beyond_box": beyond_box,
         "cuboids": int(np.prod(sim.equivalent_plastic_strain.shape)),
         "steps": len(iterations),
         "setup_s": round(setup, 3),
@@ -88,12 +96,14 @@ def full_case(path: str) -> dict:
 if __name__ == "__main__":
     args = [a for a in sys.argv[1:] if not a.startswith("--")]
     sizes = [int(a) for a in args] or [32, 64]
+    beyond = "--traction-beyond-box" in sys.argv
     # both schemes: the single coupled fixed point against the seed's nested loops
-    results = [isolated(one_step, n, scheme, hardening) for n in sizes
+    results = [isolated(one_step, n, scheme, hardening, 1, beyond) for n in sizes
                for hardening in ("mild", "strong") for scheme in ("coupled", "nested")]
     # the step-doubled increment (the second of two), coupled scheme
-    results += [isolated(one_step, n, "coupled", hardening, 2) for n in sizes
+    results += [isolated(one_step, n, "coupled", hardening, 2, beyond) for n in sizes
                 for hardening in ("mild", "strong")]
     if "--skip-case" not in sys.argv:
-        results.append(isolated(full_case, str(ROOT / "configs/nanoindentation-650mN.toml")))
+        results.append(isolated(full_case, str(ROOT / "configs/nanoindentation-650mN.toml"),
+                                beyond))
     emit("elastic_plastic", results)

@@ -5,7 +5,9 @@ steps; the cuboid box covers the whole rolled track) and at twice the resolution
 direction (48 × 48 cells, 22 layers, 340 rolling steps). Prints JSON: wall time, time per
 step, residual-stress applications and contact iterations per step, peak memory.
 
-Usage: ``python benchmarks/rolling.py [--single]`` (``--single``: seed resolution only).
+Usage: ``python benchmarks/rolling.py [--single] [--traction-beyond-box]`` (``--single``: seed
+resolution only; ``--traction-beyond-box``: with ``solver.traction_beyond_box = true``, the
+surface traction beyond the box removed by a second, coarse operator).
 """
 
 from __future__ import annotations
@@ -16,15 +18,15 @@ import time
 from _common import ROOT, emit, isolated
 
 
-def measure(factor: int) -> dict:
+def measure(factor: int, beyond_box: bool = False) -> dict:
     import numpy as np
 
     from sacflow.config.solver_inputs import simulation_for
     from sacflow.storage.case_file import load_case
 
-    overrides = []
+    overrides = [f"solver.traction_beyond_box={str(beyond_box).lower()}"]
     if factor > 1:
-        overrides = [f"grid.nx={24 * factor}", f"grid.ny={24 * factor}",
+        overrides += [f"grid.nx={24 * factor}", f"grid.ny={24 * factor}",
                      f"grid.nz={11 * factor}", f"load_path.1.steps={170 * factor}"]
     case = load_case(ROOT / "configs/rolling-smooth.toml", overrides)
     t0 = time.perf_counter()
@@ -38,6 +40,7 @@ def measure(factor: int) -> dict:
     apps = np.array([p for p, _ in per_step])
     return {
         "resolution": f"x{factor}",
+        "traction_beyond_box": beyond_box,
         "surface_cells": f"{case.grid.nx}x{case.grid.ny}",
         "cuboid_box": "x".join(str(v) for v in sim.equivalent_plastic_strain.shape),
         "steps": len(per_step),
@@ -54,4 +57,5 @@ def measure(factor: int) -> dict:
 
 if __name__ == "__main__":
     factors = [1] if "--single" in sys.argv else [1, 2]
-    emit("rolling", [isolated(measure, f) for f in factors])
+    beyond = "--traction-beyond-box" in sys.argv
+    emit("rolling", [isolated(measure, f, beyond) for f in factors])

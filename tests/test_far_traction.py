@@ -9,14 +9,18 @@ truncation is then far away).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
 from sacflow.kernels.eigenstrain import HalfSpaceEigenstrain
 from sacflow.kernels.far_traction import (
+    MARGIN_SHARE,
     MIN_SUPER_CELLS,
     FarTraction,
+    coarse_layout,
     coarsening,
     linear_weights,
 )
@@ -116,13 +120,20 @@ def test_traction_stress_is_loves_stress_of_the_traction_as_a_pressure():
 
 
 @pytest.mark.parametrize(("n1", "n2", "expected"), [
-    (64, 64, 8), (96, 80, 8), (48, 48, 4), (36, 36, 4), (34, 34, 2), (33, 32, 1), (12, 12, 1),
+    (64, 64, 8), (96, 80, 8), (48, 48, 8), (36, 36, 4), (24, 194, 2), (34, 34, 2), (12, 12, 2),
+    (33, 32, 1), (10, 10, 1),
 ])
 def test_the_super_cells_are_the_largest_that_divide_and_leave_enough(n1, n2, expected):
-    """The largest coarsening dividing both counts with at least MIN_SUPER_CELLS super-cells."""
+    """The largest coarsening dividing both counts with at least MIN_SUPER_CELLS super-cells
+    across the narrower side; the margin is a share of the narrower side (a long rolled box is
+    not widened by its length)."""
     c = coarsening(n1, n2)
     assert c == expected
     assert c == 1 or min(n1, n2) // c >= MIN_SUPER_CELLS
+    factor, (k1, k2), margin = coarse_layout(n1, n2)
+    assert (factor, k1 * c, k2 * c) == (c, n1, n2)
+    assert margin == math.ceil(MARGIN_SHARE * min(k1, k2))
+
 
 
 @pytest.mark.parametrize(("n", "c"), [(32, 4), (24, 8), (10, 2), (7, 1)])

@@ -20,8 +20,8 @@ and no refinement of cells, layers or increments sees it (``docs/convergence.md`
 
 1. the eigenstrain is averaged over super-cells of :math:`c × c` cells (every layer kept);
 2. an operator of super-cells on a footprint wider than the box by ``m`` super-cells on each
-   side (:data:`MARGIN_SHARE` of the box) gives ``t`` on that wider footprint, with zero strain
-   around the box;
+   side (:data:`MARGIN_SHARE` of the box's narrower side) gives ``t`` on that wider
+   footprint, with zero strain around the box;
 3. ``t`` inside the box's footprint is set to zero (the fine operator removes it) and Love's
    stresses of removing the rest are computed at the super-cells' centres;
 4. they are interpolated linearly in x1 and x2 to the cells' centres (extrapolated over the
@@ -44,29 +44,47 @@ from collections.abc import Sequence
 
 import numpy as np
 
-__all__ = ["COARSENING", "MARGIN_SHARE", "MIN_SUPER_CELLS", "FarTraction", "coarsening",
-           "linear_weights"]
+__all__ = ["COARSENING", "MARGIN_SHARE", "MIN_SUPER_CELLS", "FarTraction", "coarse_layout",
+           "coarsening", "linear_weights"]
 
 #: Super-cells' size in cells, largest first: the first that divides both lateral counts and
-#: leaves at least :data:`MIN_SUPER_CELLS` super-cells is used. The wider operator then has
-#: ``9 / c²`` of the box's cells. On the 650 mN indentation's plastic strain (80 × 80 × 48
-#: cells, c = 8) σ11 on the axis comes out within 0.05 % of a box four times as wide, where
-#: the bare box misses 3.3 % at 2 a; c = 16 (5 super-cells) left 0.14 % there.
+#: leaves at least :data:`MIN_SUPER_CELLS` super-cells across the box is used. The wider
+#: operator of a square box then has ``9 / c²`` of the box's cells. On the 650 mN indentation's plastic strain
+#: (80 × 80 × 48 cells, c = 8) σ11 on the axis comes out within 0.05 % of a box four times
+#: as wide, where the bare box misses 3.3 % at 2 a; c = 16 (5 super-cells) left 0.14 % there.
 COARSENING = (8, 4, 2, 1)
-#: Width of the margin on each side, as a share of the box's width (then rounded up to whole
-#: super-cells): the traction beyond it falls like the cube of the distance. A margin of half
+#: Width of the margin on each side, as a share of the box's narrower side (then rounded up to
+#: whole super-cells): the traction beyond it falls like the cube of the distance. A margin of half
 #: the box left 0.16 % of σ11 at 2 a in that check.
 MARGIN_SHARE = 1.0
-#: Fewest super-cells along x1 or x2 (fewer: a finer coarsening).
-MIN_SUPER_CELLS = 8
+#: Fewest super-cells across the box's narrower side (fewer: a finer coarsening).
+MIN_SUPER_CELLS = 6
 
 
 def coarsening(n1: int, n2: int) -> int:
-    """Return the super-cells' size (cells) for a box of ``n1 × n2`` cells (:data:`COARSENING`)."""
+    """Return the super-cells' size (cells) for a box of ``n1 × n2`` cells.
+
+    The largest of :data:`COARSENING` that divides both counts and leaves
+    :data:`MIN_SUPER_CELLS` across the narrower side. A box with an odd count of cells gets 1:
+    a wider operator at the box's own cells, nine times its cells for a square box (a
+    super-cell that straddled the box's side would put the traction of its inner part beyond
+    the side: tried, it was worse than the bare box there).
+    """
     for c in COARSENING:
         if n1 % c == 0 and n2 % c == 0 and min(n1, n2) // c >= MIN_SUPER_CELLS:
             return c
     return 1
+
+
+def coarse_layout(n1: int, n2: int) -> tuple[int, tuple[int, int], int]:
+    """Return the super-cells' size, their counts over the box and the margin (super-cells).
+
+    The margin, the same on every side, is :data:`MARGIN_SHARE` of the narrower side: a long
+    box (a rolled track) is not widened by its length.
+    """
+    c = coarsening(n1, n2)
+    counts = (n1 // c, n2 // c)
+    return c, counts, math.ceil(MARGIN_SHARE * min(counts))
 
 
 def linear_weights(n: int, c: int) -> np.ndarray:
@@ -111,8 +129,10 @@ class FarTraction:
     ----------
     factor : int
         Super-cells' size in cells (:func:`coarsening`).
-    margin : (int, int)
-        Super-cells added on each side along x1 and x2.
+    coarse : (int, int)
+        Super-cells over the box along x1 and x2.
+    margin : int
+        Super-cells added on every side (:func:`coarse_layout`).
     """
 
     def __init__(self, shape: Sequence[int], spacing: Sequence[float], E: float, nu: float,
@@ -121,24 +141,20 @@ class FarTraction:
 
         n1, n2, n3 = (int(n) for n in shape)
         self.shape = (n1, n2, n3)
-        self.factor = c = coarsening(n1, n2)
-        self.coarse = (n1 // c, n2 // c)
-        self.margin = tuple(math.ceil(MARGIN_SHARE * k) for k in self.coarse)
-        wide = tuple(k + 2 * m for k, m in zip(self.coarse, self.margin, strict=True))
+        self.factor, self.coarse, self.margin = coarse_layout(n1, n2)
+        c, m = self.factor, self.margin
         d1, d2, d3 = (float(d) for d in spacing)
-        self.operator = HalfSpaceEigenstrain((*wide, n3), (c * d1, c * d2, d3), E, nu,
-                                             threads=threads, max_bytes=max_bytes)
+        self.operator = HalfSpaceEigenstrain(self.shape_for(self.shape), (c * d1, c * d2, d3),
+                                             E, nu, threads=threads, max_bytes=max_bytes)
         self._weights = (linear_weights(n1, c), linear_weights(n2, c))
-        self._box = tuple(slice(m, m + k) for k, m in zip(self.coarse, self.margin, strict=True))
+        self._box = tuple(slice(m, m + k) for k in self.coarse)
 
     @staticmethod
     def shape_for(shape: Sequence[int]) -> tuple[int, int, int]:
         """Return the coarse operator's shape for a box of ``shape`` (for memory estimates)."""
         n1, n2, n3 = (int(n) for n in shape)
-        c = coarsening(n1, n2)
-        coarse = (n1 // c, n2 // c)
-        w1, w2 = (k + 2 * math.ceil(MARGIN_SHARE * k) for k in coarse)
-        return w1, w2, n3
+        _, (k1, k2), margin = coarse_layout(n1, n2)
+        return k1 + 2 * margin, k2 + 2 * margin, n3
 
     def stress(self, eps: np.ndarray) -> np.ndarray:
         """Stress [Pa] (n1, n2, n3, 6) in the box of removing the traction beyond it.
@@ -151,9 +167,8 @@ class FarTraction:
         n1, n2, n3 = self.shape
         c = self.factor
         k1, k2 = self.coarse
-        coarse = np.asarray(eps).reshape(k1, c, k2, c, n3, 6).mean(axis=(1, 3))
         wide = np.zeros((*self.operator.shape, 6))
-        wide[self._box] = coarse
+        wide[self._box] = np.asarray(eps).reshape(k1, c, k2, c, n3, 6).mean(axis=(1, 3))
         traction, _ = self.operator.surface_fields(wide, with_displacement=False)
         traction[self._box] = 0.0  # the fine operator removes the traction over the footprint
         response = self.operator.traction_stress(traction)[self._box]
