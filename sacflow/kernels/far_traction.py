@@ -49,13 +49,14 @@ __all__ = ["COARSENING", "MARGIN_SHARE", "MIN_SUPER_CELLS", "FarTraction", "coar
 
 #: Super-cells' size in cells, largest first: the first that divides both lateral counts and
 #: leaves at least :data:`MIN_SUPER_CELLS` super-cells across the box is used. The wider
-#: operator of a square box then has ``9 / c²`` of the box's cells. On the 650 mN indentation's plastic strain
-#: (80 × 80 × 48 cells, c = 8) σ11 on the axis comes out within 0.05 % of a box four times
-#: as wide, where the bare box misses 3.3 % at 2 a; c = 16 (5 super-cells) left 0.14 % there.
+#: operator of a square box then has ``9 / c²`` of the box's cells. On the 650 mN
+#: indentation's plastic strain (80 × 80 × 48 cells, c = 8) σ11 on the axis comes out within
+#: 0.05 % of a box four times as wide, where the bare box misses 3.3 % at 2 a; c = 16
+#: (5 super-cells) left 0.14 % there.
 COARSENING = (8, 4, 2, 1)
-#: Width of the margin on each side, as a share of the box's narrower side (then rounded up to
-#: whole super-cells): the traction beyond it falls like the cube of the distance. A margin of half
-#: the box left 0.16 % of σ11 at 2 a in that check.
+#: Width of the margin on each side, as a share of the box's narrower side (then rounded up
+#: to whole super-cells): the traction beyond it falls like the cube of the distance. A margin
+#: of half the box left 0.16 % of σ11 at 2 a in that check.
 MARGIN_SHARE = 1.0
 #: Fewest super-cells across the box's narrower side (fewer: a finer coarsening).
 MIN_SUPER_CELLS = 6
