@@ -360,7 +360,14 @@ REFINED_TABLES = {
     "presswin": ("convergence-press-window-summary.csv", "convergence-press-window.csv"),
     "win650": ("convergence-window-650-summary.csv", "convergence-window-650.csv"),
     "winbase": ("convergence-window-base-summary.csv", "convergence-window-base.csv"),
+    "presswinfar": ("convergence-press-window-far-summary.csv",
+                    "convergence-press-window-far.csv"),
+    "win650far": ("convergence-window-650-far-summary.csv", "convergence-window-650-far.csv"),
 }
+#: Level tables whose levels and limits are also compared with the limits of another table of
+#: the same case, sequence and quantity (the window with and without the traction beyond the
+#: box): tag -> the other tag (``{tag}_..._level{L}_against_error``, ``_limit_against_error``).
+AGAINST_LIMITS = {"presswinfar": "presswin", "win650far": "win650"}
 #: Level tables whose levels are also compared with the `together` limits of
 #: ``data/convergence-shipped-summary.csv`` (``{tag}_..._level{L}_together_error``).
 AGAINST_TOGETHER = ("incgrid",)
@@ -471,6 +478,29 @@ def convergence_refined(out: Path) -> dict[str, float]:
         numbers[f"shipcheck5_{case}_largest_discrepancy_but_depth"] = max(
             v for stem, v in sizes.items() if stem != "max_eqps_refined_depth")
     numbers.update(_against_together())
+    numbers.update(_against_limits())
+    return numbers
+
+
+def _against_limits() -> dict[str, float]:
+    """The levels and limit of each table of :data:`AGAINST_LIMITS` against the other table's
+    limit, relative as the study's errors (``{tag}_..._level{L}_against_error``,
+    ``{tag}_..._limit_against_error``)."""
+    from sacflow.studies.richardson import relative_errors
+
+    numbers: dict[str, float] = {}
+    for tag, other in AGAINST_LIMITS.items():
+        limits = {(r["case"], r["quantity"]): float(r["limit"])
+                  for r in data_rows(REFINED_TABLES[other][0]) if r["limit"]}
+        for table, column, suffix in ((1, "value", "level{level}"), (0, "limit", "limit")):
+            for r in data_rows(REFINED_TABLES[tag][table]):
+                case, stem = CELL_MEAN_CASES.get(r["case"]), REFINED_QUANTITIES.get(r["quantity"])
+                limit = limits.get((r["case"], r["quantity"]))
+                if case is None or stem is None or limit is None or not r[column]:
+                    continue
+                name = suffix.format(level=r.get("level"))
+                numbers[f"{tag}_{case}_{r['sequence']}_{stem}_{name}_against_error"] = (
+                    relative_errors([float(r[column])], limit)[0])
     return numbers
 
 

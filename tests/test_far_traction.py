@@ -181,3 +181,30 @@ def test_a_run_with_the_traction_beyond_its_box_is_that_of_a_box_twice_as_wide()
     far_stress, far_print = _press(24, 1.5, True)
     assert np.abs(far_stress - wide_stress).max() < 0.1 * np.abs(bare_stress - wide_stress).max()
     assert abs(far_print - wide_print) < 0.1 * abs(bare_print - wide_print)
+
+
+def test_the_memory_estimate_counts_the_coarse_operator():
+    """``sacflow validate`` and the run's memory check count the second operator: the estimate
+    of a case with the option has its item, sized by the coarse operator's shape, and is larger
+    by at least that operator's spectra."""
+    from sacflow.config.solver_inputs import estimate_case_memory
+    from sacflow.kernels.eigenstrain_memory import operator_bytes
+    from sacflow.storage.case_file import case_from_dict
+
+    def case(beyond: bool):
+        return case_from_dict({
+            "name": "far-traction-memory",
+            "body": {"E": E, "nu": NU, "hardening": {"law": "linear", "yield_stress": 4.2e9,
+                                                       "modulus": 10.5e9}},
+            "counterbody": {"kind": "rigid", "radius": 105e-6},
+            "grid": {"nx": 64, "ny": 64, "nz": 32},
+            "load_path": [{"kind": "load", "to": 0.65, "increments": 1}],
+            "solver": {"traction_beyond_box": beyond},
+        })
+
+    bare, far = estimate_case_memory(case(False)), estimate_case_memory(case(True))
+    items = {item.name: item.nbytes for item in far.items}
+    assert "far-traction operator" in items
+    assert "far-traction operator" not in {item.name for item in bare.items}
+    spectra = operator_bytes(FarTraction.shape_for((64, 64, 32)))
+    assert far.total - bare.total >= spectra
