@@ -18,11 +18,12 @@ from numpy.testing import assert_allclose
 from sacflow.kernels.eigenstrain import HalfSpaceEigenstrain
 from sacflow.kernels.far_traction import (
     MARGIN_SHARE,
+    MAX_SUPER_CELL,
     MIN_SUPER_CELLS,
     FarTraction,
     coarse_layout,
-    coarsening,
     linear_weights,
+    super_cell,
 )
 from sacflow.kernels.surface import rectangle_stress
 
@@ -119,21 +120,27 @@ def test_traction_stress_is_loves_stress_of_the_traction_as_a_pressure():
                         atol=1e-9 * np.abs(stress).max())
 
 
-@pytest.mark.parametrize(("n1", "n2", "expected"), [
-    (64, 64, 8), (96, 80, 8), (48, 48, 8), (36, 36, 4), (24, 194, 2), (34, 34, 2), (12, 12, 2),
-    (33, 32, 1), (10, 10, 1),
+@pytest.mark.parametrize(("n", "expected"), [
+    (64, 8), (80, 8), (48, 8), (36, 6), (65, 5), (24, 4), (34, 2), (12, 2), (67, 1), (10, 1),
 ])
-def test_the_super_cells_are_the_largest_that_divide_and_leave_enough(n1, n2, expected):
-    """The largest coarsening dividing both counts with at least MIN_SUPER_CELLS super-cells
-    across the narrower side; the margin is a share of the narrower side (a long rolled box is
-    not widened by its length)."""
-    c = coarsening(n1, n2)
+def test_the_super_cells_are_the_largest_divisors_that_leave_enough(n, expected):
+    """Along each axis the largest divisor up to MAX_SUPER_CELL leaving MIN_SUPER_CELLS."""
+    c = super_cell(n)
     assert c == expected
-    assert c == 1 or min(n1, n2) // c >= MIN_SUPER_CELLS
-    factor, (k1, k2), margin = coarse_layout(n1, n2)
-    assert (factor, k1 * c, k2 * c) == (c, n1, n2)
-    assert margin == math.ceil(MARGIN_SHARE * min(k1, k2))
+    assert n % c == 0 and c <= MAX_SUPER_CELL
+    assert c == 1 or n // c >= MIN_SUPER_CELLS
+    assert all(n % d or n // d < MIN_SUPER_CELLS for d in range(c + 1, MAX_SUPER_CELL + 1))
 
+
+def test_the_margin_is_a_share_of_the_narrower_side_on_every_axis():
+    """A rolled box of 65 × 24 cells (the seed's smooth rolling): super-cells of 5 × 4 cells,
+    and a margin as wide as the 24 cells on both axes, not a share of the track's length;
+    with cells twice as long along x1, half as many super-cells of margin along it."""
+    factor, counts, margins = coarse_layout((65, 24))
+    assert (factor, counts) == ((5, 4), (13, 6))
+    assert margins == (math.ceil(MARGIN_SHARE * 24 / 5), math.ceil(MARGIN_SHARE * 24 / 4))
+    _, _, stretched = coarse_layout((64, 64), (2.0, 1.0))
+    assert stretched == (math.ceil(MARGIN_SHARE * 64 / 16), math.ceil(MARGIN_SHARE * 64 / 8))
 
 
 @pytest.mark.parametrize(("n", "c"), [(32, 4), (24, 8), (10, 2), (7, 1)])

@@ -18,7 +18,7 @@ and no refinement of cells, layers or increments sees it (``docs/convergence.md`
 ``t`` outside the footprint and ``Δσ`` inside the box are smooth at the scale of a few cells
 (they are far from the plastic strain, or seen from a distance), so both are computed coarse:
 
-1. the eigenstrain is averaged over super-cells of :math:`c × c` cells (every layer kept);
+1. the eigenstrain is averaged over super-cells of :math:`c_1 × c_2` cells (every layer kept);
 2. an operator of super-cells on a footprint wider than the box by ``m`` super-cells on each
    side (:data:`MARGIN_SHARE` of the box's narrower side) gives ``t`` on that wider
    footprint, with zero strain around the box;
@@ -28,9 +28,9 @@ and no refinement of cells, layers or increments sees it (``docs/convergence.md`
    outer half super-cell) and added to the fine residual stress.
 
 Two approximations: the traction at distance ``r`` of the super-cells misses terms of order
-``(c d / r)²``, and the linear interpolation of a field that varies over the box's width.
-Beyond the wider footprint the traction is still left out; it has fallen by the cube of the
-distance. The check: a box four times as wide at the fine cells
+``(c d / r)²`` (``c d`` a super-cell's side), and the linear interpolation of a field that
+varies over the box's width. Beyond the wider footprint the traction is still left out; it
+has fallen by the cube of the distance. The check: a box four times as wide at the fine cells
 (``tests/test_far_traction.py``).
 
 The residual surface displacement is exact without this (reciprocal theorem: no traction
@@ -44,48 +44,54 @@ from collections.abc import Sequence
 
 import numpy as np
 
-__all__ = ["COARSENING", "MARGIN_SHARE", "MIN_SUPER_CELLS", "FarTraction", "coarse_layout",
-           "coarsening", "linear_weights"]
+__all__ = ["MARGIN_SHARE", "MAX_SUPER_CELL", "MIN_SUPER_CELLS", "FarTraction", "coarse_layout",
+           "linear_weights", "super_cell"]
 
-#: Super-cells' size in cells, largest first: the first that divides both lateral counts and
-#: leaves at least :data:`MIN_SUPER_CELLS` super-cells across the box is used. The wider
-#: operator of a square box then has ``9 / c²`` of the box's cells. On the 650 mN
-#: indentation's plastic strain (80 × 80 × 48 cells, c = 8) σ11 on the axis comes out within
-#: 0.05 % of a box four times as wide, where the bare box misses 3.3 % at 2 a; c = 16
-#: (5 super-cells) left 0.14 % there.
-COARSENING = (8, 4, 2, 1)
+#: Largest super-cell side, in cells: along each axis the super-cells are the largest divisor
+#: of the box's cells up to this that leaves at least :data:`MIN_SUPER_CELLS` across it (a
+#: rolled box of 65 × 24 cells gets super-cells of 5 × 4). A square box of 8 c cells then has
+#: a wider operator of ``9 / c²`` of its cells. On the 650 mN indentation's plastic strain
+#: (80 × 80 × 48 cells, super-cells of 8) σ11 on the axis comes out within 0.05 % of a box
+#: four times as wide, where the bare box misses 3.3 % at 2 a; super-cells of 16 (5 across)
+#: left 0.14 % there.
+MAX_SUPER_CELL = 8
 #: Width of the margin on each side, as a share of the box's narrower side (then rounded up
 #: to whole super-cells): the traction beyond it falls like the cube of the distance. A margin
 #: of half the box left 0.16 % of σ11 at 2 a in that check.
 MARGIN_SHARE = 1.0
-#: Fewest super-cells across the box's narrower side (fewer: a finer coarsening).
+#: Fewest super-cells across the box along an axis (fewer: smaller super-cells).
 MIN_SUPER_CELLS = 6
 
 
-def coarsening(n1: int, n2: int) -> int:
-    """Return the super-cells' size (cells) for a box of ``n1 × n2`` cells.
+def super_cell(n: int) -> int:
+    """Return the super-cells' side (cells) along an axis of ``n`` cells.
 
-    The largest of :data:`COARSENING` that divides both counts and leaves
-    :data:`MIN_SUPER_CELLS` across the narrower side. A box with an odd count of cells gets 1:
-    a wider operator at the box's own cells, nine times its cells for a square box (a
-    super-cell that straddled the box's side would put the traction of its inner part beyond
-    the side: tried, it was worse than the bare box there).
+    The largest divisor of ``n`` up to :data:`MAX_SUPER_CELL` that leaves
+    :data:`MIN_SUPER_CELLS` super-cells; 1 if none does (a prime count: that axis keeps its
+    cells, the wider operator is then three times the box's width of cells along it). The
+    super-cells must tile the box: one that straddled the box's side would put the traction
+    of its inner part beyond the side (tried: worse than the bare box there).
     """
-    for c in COARSENING:
-        if n1 % c == 0 and n2 % c == 0 and min(n1, n2) // c >= MIN_SUPER_CELLS:
+    for c in range(MAX_SUPER_CELL, 1, -1):
+        if n % c == 0 and n // c >= MIN_SUPER_CELLS:
             return c
     return 1
 
 
-def coarse_layout(n1: int, n2: int) -> tuple[int, tuple[int, int], int]:
-    """Return the super-cells' size, their counts over the box and the margin (super-cells).
+def coarse_layout(counts: Sequence[int], spacing: Sequence[float] = (1.0, 1.0)
+                  ) -> tuple[tuple[int, int], tuple[int, int], tuple[int, int]]:
+    """Return the super-cells' sides (cells), their counts over the box and the margins.
 
-    The margin, the same on every side, is :data:`MARGIN_SHARE` of the narrower side: a long
-    box (a rolled track) is not widened by its length.
+    The margin, the same width on every side, is :data:`MARGIN_SHARE` of the box's narrower
+    side (a long box, a rolled track, is not widened by its length), in whole super-cells of
+    each axis. ``counts`` are the box's cells (n1, n2), ``spacing`` their sizes (d1, d2).
     """
-    c = coarsening(n1, n2)
-    counts = (n1 // c, n2 // c)
-    return c, counts, math.ceil(MARGIN_SHARE * min(counts))
+    n1, n2 = (int(n) for n in counts)
+    d1, d2 = (float(d) for d in spacing)
+    c1, c2 = super_cell(n1), super_cell(n2)
+    width = MARGIN_SHARE * min(n1 * d1, n2 * d2)
+    margins = (math.ceil(width / (c1 * d1) - 1e-9), math.ceil(width / (c2 * d2) - 1e-9))
+    return (c1, c2), (n1 // c1, n2 // c2), margins
 
 
 def linear_weights(n: int, c: int) -> np.ndarray:
@@ -128,12 +134,12 @@ class FarTraction:
 
     Attributes
     ----------
-    factor : int
-        Super-cells' size in cells (:func:`coarsening`).
+    factor : (int, int)
+        Super-cells' sides in cells along x1 and x2 (:func:`super_cell`).
     coarse : (int, int)
         Super-cells over the box along x1 and x2.
-    margin : int
-        Super-cells added on every side (:func:`coarse_layout`).
+    margin : (int, int)
+        Super-cells added on each side along x1 and x2 (:func:`coarse_layout`).
     """
 
     def __init__(self, shape: Sequence[int], spacing: Sequence[float], E: float, nu: float,
@@ -141,21 +147,26 @@ class FarTraction:
         from sacflow.kernels.eigenstrain import HalfSpaceEigenstrain
 
         n1, n2, n3 = (int(n) for n in shape)
-        self.shape = (n1, n2, n3)
-        self.factor, self.coarse, self.margin = coarse_layout(n1, n2)
-        c, m = self.factor, self.margin
         d1, d2, d3 = (float(d) for d in spacing)
-        self.operator = HalfSpaceEigenstrain(self.shape_for(self.shape), (c * d1, c * d2, d3),
-                                             E, nu, threads=threads, max_bytes=max_bytes)
-        self._weights = (linear_weights(n1, c), linear_weights(n2, c))
-        self._box = tuple(slice(m, m + k) for k in self.coarse)
+        self.shape = (n1, n2, n3)
+        self.factor, self.coarse, self.margin = coarse_layout((n1, n2), (d1, d2))
+        (c1, c2), (m1, m2) = self.factor, self.margin
+        self.operator = HalfSpaceEigenstrain(self.shape_for(self.shape, spacing),
+                                             (c1 * d1, c2 * d2, d3), E, nu, threads=threads,
+                                             max_bytes=max_bytes)
+        self._weights = (linear_weights(n1, c1), linear_weights(n2, c2))
+        self._box = (slice(m1, m1 + self.coarse[0]), slice(m2, m2 + self.coarse[1]))
 
     @staticmethod
-    def shape_for(shape: Sequence[int]) -> tuple[int, int, int]:
-        """Return the coarse operator's shape for a box of ``shape`` (for memory estimates)."""
+    def shape_for(shape: Sequence[int], spacing: Sequence[float] = (1.0, 1.0, 1.0)
+                  ) -> tuple[int, int, int]:
+        """Return the coarse operator's shape for a box of ``shape``.
+
+        For memory estimates: without ``spacing``, square cells.
+        """
         n1, n2, n3 = (int(n) for n in shape)
-        _, (k1, k2), margin = coarse_layout(n1, n2)
-        return k1 + 2 * margin, k2 + 2 * margin, n3
+        _, (k1, k2), (m1, m2) = coarse_layout((n1, n2), tuple(spacing)[:2])
+        return k1 + 2 * m1, k2 + 2 * m2, n3
 
     def stress(self, eps: np.ndarray) -> np.ndarray:
         """Stress [Pa] (n1, n2, n3, 6) in the box of removing the traction beyond it.
@@ -166,10 +177,10 @@ class FarTraction:
             Eigenstrain per cuboid, as :class:`~sacflow.kernels.eigenstrain.HalfSpaceEigenstrain`.
         """
         n1, n2, n3 = self.shape
-        c = self.factor
+        c1, c2 = self.factor
         k1, k2 = self.coarse
         wide = np.zeros((*self.operator.shape, 6))
-        wide[self._box] = np.asarray(eps).reshape(k1, c, k2, c, n3, 6).mean(axis=(1, 3))
+        wide[self._box] = np.asarray(eps).reshape(k1, c1, k2, c2, n3, 6).mean(axis=(1, 3))
         traction, _ = self.operator.surface_fields(wide, with_displacement=False)
         traction[self._box] = 0.0  # the fine operator removes the traction over the footprint
         response = self.operator.traction_stress(traction)[self._box]
