@@ -363,11 +363,12 @@ REFINED_TABLES = {
     "presswinfar": ("convergence-press-window-far-summary.csv",
                     "convergence-press-window-far.csv"),
     "win650far": ("convergence-window-650-far-summary.csv", "convergence-window-650-far.csv"),
+    "winbasefar": ("convergence-window-base-far-summary.csv", "convergence-window-base-far.csv"),
 }
 #: Level tables whose levels and limits are also compared with the limits of another table of
 #: the same case, sequence and quantity (the window with and without the traction beyond the
 #: box): tag -> the other tag (``{tag}_..._level{L}_against_error``, ``_limit_against_error``).
-AGAINST_LIMITS = {"presswinfar": "presswin", "win650far": "win650"}
+AGAINST_LIMITS = {"presswinfar": "presswin", "win650far": "win650", "winbasefar": "winbase"}
 #: Level tables whose levels are also compared with the `together` limits of
 #: ``data/convergence-shipped-summary.csv`` (``{tag}_..._level{L}_together_error``).
 AGAINST_TOGETHER = ("incgrid",)
