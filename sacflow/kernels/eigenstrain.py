@@ -361,21 +361,7 @@ class HalfSpaceEigenstrain:
         """
         if not self._spectra_of_eps:
             raise RuntimeError("HalfSpaceEigenstrain.stress needs surface_fields first")
-        self._spectra_of_eps = False
-        n1, n2, n3 = self.shape
-        self._fft2.real[0] = 0.0
-        self._fft2.real[0, :n1, :n2] = traction if pressure is None else traction + pressure
-        p_hat = self._fft2.forward()[0]
-        spec = self._lateral.spectrum
-        self._multiply(spec, p_hat, spec)  # in place, point by point
-        self._lateral.inverse()
-        for transform in self._depth_inverse:
-            transform()
-        from sacflow.kernels.layer_lines import box_from_lines
-
-        stress = np.empty((n1, n2, n3, 6))
-        over_ranges(box_from_lines, n1, self.threads, self._lateral.real[:, :, :n1, :n2],
-                    stress, weight=n2 * n3 * 6)
+        stress = self._back(traction if pressure is None else traction + pressure)
         if self._stencil is not None and self._top is not None:
             stress[:, :, :self._stencil.targets] += self._stencil.apply(self._top)
         if self._far is not None and self._far_stress is not None:
@@ -390,9 +376,30 @@ class HalfSpaceEigenstrain:
         eigenstrain (the products of :meth:`stress` on zero spectra).
         """
         self._lateral.spectrum[...] = 0.0
-        self._spectra_of_eps = True
-        self._top = self._far_stress = None  # the traction alone: no eigenstrain's terms
-        return self.stress(traction)
+        return self._back(traction)
+
+    def _back(self, load: np.ndarray) -> np.ndarray:
+        """Transform the buffer's spectra and the surface ``load`` back to the cuboids.
+
+        The products of the spectra in the buffer and of ``load`` (n1, n2), then the inverse
+        transforms: the stress (n1, n2, n3, 6). The buffer is spent.
+        """
+        self._spectra_of_eps = False
+        n1, n2, n3 = self.shape
+        self._fft2.real[0] = 0.0
+        self._fft2.real[0, :n1, :n2] = load
+        p_hat = self._fft2.forward()[0]
+        spec = self._lateral.spectrum
+        self._multiply(spec, p_hat, spec)  # in place, point by point
+        self._lateral.inverse()
+        for transform in self._depth_inverse:
+            transform()
+        from sacflow.kernels.layer_lines import box_from_lines
+
+        stress = np.empty((n1, n2, n3, 6))
+        over_ranges(box_from_lines, n1, self.threads, self._lateral.real[:, :, :n1, :n2],
+                    stress, weight=n2 * n3 * 6)
+        return stress
 
 
 @functools.lru_cache(maxsize=4)
