@@ -15,7 +15,9 @@ on its body grid (:func:`~sacflow.solver.layout.body_grid`; a case's is laid out
 * for a plastic body, the eigenstrain operator (:class:`~sacflow.kernels.eigenstrain.
   HalfSpaceEigenstrain`): its persistent spectra and buffers
   (:func:`~sacflow.kernels.eigenstrain_memory.operator_bytes`) and the transient of its set-up
-  (:func:`~sacflow.kernels.eigenstrain_memory.setup_bytes`);
+  (:func:`~sacflow.kernels.eigenstrain_memory.setup_bytes`); with
+  ``solver.traction_beyond_box``, the second, coarse operator of the traction beyond the box
+  (:class:`~sacflow.kernels.far_traction.FarTraction`) and its set-up;
 * the solver state (plastic strain, residual stress), the working arrays of one increment's
   fixed point, the Anderson history (:mod:`sacflow.solver.anderson`) and the GMRES basis of the
   Newton–Krylov fallback;
