@@ -320,7 +320,12 @@ def backward_euler_increments(out: Path) -> dict[str, float]:
     """docs/convergence.md: the 650 mN print depth with one backward-Euler step per increment
     at 32² × 12 cells (the study's box depth) for 10, 20, 40 and 80 load increments (minutes)."""
     from sacflow.config.solver_inputs import simulation_for
-    from sacflow.studies.convergence import STUDY_CASES, base_case, shipped_discretisation
+    from sacflow.studies.convergence import (
+        STUDY_CASES,
+        WITHOUT_FAR_TRACTION,
+        base_case,
+        shipped_discretisation,
+    )
 
     study = STUDY_CASES["nanoindentation-650mN"]
     depth = shipped_discretisation(base_case(study)).depth
@@ -329,7 +334,7 @@ def backward_euler_increments(out: Path) -> dict[str, float]:
         case = base_case(study, [
             "grid.nx=32", "grid.ny=32", "grid.nz=12", f"grid.depth={depth!r}",
             "solver.return_integration=backward_euler", f"load_path.0.increments={n}",
-            f"load_path.1.increments={n // 2}"])
+            f"load_path.1.increments={n // 2}", WITHOUT_FAR_TRACTION])
         last = list(simulation_for(case).run())[-1]
         numbers[f"euler_print_depth_{n}"] = float(last.surface["residual_displacement"].max())
     return numbers

@@ -14,7 +14,9 @@ smooth part of the grid error to move little, while the edge crosses its cell; a
 at the same cell size (more cells) is the control for the window itself. It prints, and
 writes to ``--table``, per window: the cell size, the contact radius at the peak load and the
 edge's position in its cell, and the convergence study's quantities
-(:func:`sacflow.studies.convergence.measure`).
+(:func:`sacflow.studies.convergence.measure`). It runs the press as its tables were recorded,
+with the residual stress's surface traction beyond the box left out (the press ships with it
+removed since; ``WITHOUT_FAR_TRACTION``), so that the window changes only the edge's cell.
 
 The contact radius is read on the cell row nearest the axis: the outermost loaded cell carries
 a share of the pressure of the cell inside it, and the edge is put that share of a cell beyond
@@ -37,7 +39,13 @@ from sacflow.config.case import Case
 from sacflow.config.solver_inputs import simulation_for
 from sacflow.errors import SacflowError
 from sacflow.solver.state import State
-from sacflow.studies.convergence import STUDY_CASES, base_case, measure, shipped_discretisation
+from sacflow.studies.convergence import (
+    STUDY_CASES,
+    WITHOUT_FAR_TRACTION,
+    base_case,
+    measure,
+    shipped_discretisation,
+)
 from sacflow.studies.convergence_table import write_csv
 
 CASE = STUDY_CASES["dent-from-indentation-press"]
@@ -73,7 +81,7 @@ def case_for(nx: int, layers: int, increments: tuple[int, int], half_width: floa
                             f"grid.depth={depth!r}", f"grid.half_width={half_width!r}",
                             f"load_path.0.increments={increments[0]}",
                             f"load_path.1.increments={increments[1]}",
-                            f"output.volume_every={sum(increments)}"])
+                            f"output.volume_every={sum(increments)}", WITHOUT_FAR_TRACTION])
 
 
 def run_window(case: Case) -> dict[str, float]:

@@ -5,10 +5,12 @@
 SAMPLING is ``solver.stress_sampling`` (1: stresses at the cell centres; 2 or more: cell
 means, as the press ships since issue #32). The increments are the 10 + 3 of the study's base
 (those of ``notes/press-near-surface.md``; an override ``load_path.0.increments=20`` changes
-them). Prints the run time, print depth, largest εp, peak pressure, the residual
-σ33 and εp on the axis (first 20 layers) and the first layer's σ33 (axis, minimum) and writes
-the final fields to DIR/run_<tag>.npz (default DIR: runs/press-near-surface); a file already
-there is kept, and the run refused.
+them), and the surface traction beyond the box is left out as it was there (an override
+``solver.traction_beyond_box=true`` removes it, as the press ships since). Prints the run
+time, print depth, largest εp, peak pressure, the residual σ33 and εp on the axis (first 20
+layers) and the first layer's σ33 (axis, minimum) and writes the final fields to
+DIR/run_<tag>.npz (default DIR: runs/press-near-surface); a file already there is kept, and
+the run refused.
 """
 
 from __future__ import annotations
@@ -25,6 +27,7 @@ from sacflow.errors import InputError
 from sacflow.solver.simulation import Simulation
 from sacflow.studies.convergence import (
     STUDY_CASES,
+    WITHOUT_FAR_TRACTION,
     base_case,
     base_increments_overrides,
     shipped_discretisation,
@@ -52,7 +55,8 @@ def main(argv: list[str]) -> None:
         depth = shipped_discretisation(base_case(CASE)).depth
         case = base_case(CASE, [f"grid.nx={nx}", f"grid.ny={nx}", f"grid.nz={nz}",
                                 f"grid.depth={depth!r}", f"solver.stress_sampling={sampling}",
-                                *base_increments_overrides(CASE), *extra])
+                                *base_increments_overrides(CASE), WITHOUT_FAR_TRACTION,
+                                *extra])
     except InputError as exc:
         sys.exit(str(exc))
     start = time.time()

@@ -8,6 +8,7 @@ covers, and say so in the commit (every stored run of a changed id is then anoth
 
 from __future__ import annotations
 
+import argparse
 import csv
 import subprocess
 import sys
@@ -21,7 +22,8 @@ from test_case_ids import TABLE, case_ids  # noqa: E402
 
 
 def main() -> None:
-    """Write ``data/case_ids.csv`` from the current code."""
+    """Write ``data/case_ids.csv`` from the current code (``--help`` writes nothing)."""
+    argparse.ArgumentParser(description=__doc__.splitlines()[0]).parse_args()
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, text=True,
                             capture_output=True, check=False).stdout.strip() or "unknown"
     with tempfile.TemporaryDirectory() as folder:

@@ -92,6 +92,13 @@ def merged(new: list[dict[str, str]], only: set[str]) -> list[dict[str, str]]:
 CONFIG_ORDER = {path.stem: k for k, path in enumerate(CONFIGS)}
 
 
+def _change(value: float, was: float) -> str:
+    """The relative change from the recorded value (a recorded zero: the value itself)."""
+    if was == 0.0:
+        return "+0.000%" if value == 0.0 else f"{value:+.6g} (recorded 0)"
+    return f"{value / was - 1:+.3%}"
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--check", action="store_true", help="compare, do not write")
@@ -107,7 +114,7 @@ def main() -> None:
         old = recorded()
         for row in new:
             was = old.get(row["config"], {}).get(row["quantity"])
-            change = "new" if was is None else f"{float(row['value']) / was - 1:+.3%}"
+            change = "new" if was is None else _change(float(row["value"]), was)
             print(f"{row['config']:32s} {row['quantity']:20s} {row['value']}  {change}")
         return
     if only is not None:

@@ -1,0 +1,162 @@
+"""The error of a shipped discretisation against a limit with the window refined as well.
+
+A convergence study's `together` sequence (:mod:`sacflow.studies.convergence`) refines the
+cells, the layers and the increments at a fixed contact window; its Richardson limit L_T is a
+limit *at that window*. The `window` sequence widens the window at fixed cells, with the
+residual stress's surface traction left out beyond the box, and its limit L_W is the limit of
+an unbounded window at its grid h_w. With errors that add (f(h, W) = f* + E_h(h) + E_W(W)),
+the limit of both is
+
+    f* = L_T + (L_W − f_W),
+
+f_W being the window sequence's first level (the shipped window, at h_w). Its uncertainty is
+taken as U_T + U_W, each sequence's grid convergence index
+(:mod:`sacflow.studies.richardson`), plus how far the window's error moves with the grid:
+when the shipped discretisation h_s is not h_w, the change that removing the traction beyond
+the box (``solver.traction_beyond_box``) makes at h_s, d_s, against the change it makes at
+h_w, d_w (|d_s − d_w|, the ``transfer``), which is the error of the assumption that the
+window's error does not depend on the grid, measured between the two grids.
+
+The shipped discretisation's error is then (f_s − f*) / s for its value f_s with the
+traction beyond the box removed: the error a user of the shipped case gets, the window
+included. The scale s is |f*| for a quantity of its own; for a point of a profile that
+changes sign (the residual σ11 on the axis) it is the profile's largest magnitude, since an
+error relative to the value itself grows without bound where the profile crosses zero.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from sacflow.errors import SacflowError
+from sacflow.studies.convergence_table import TARGET_ERROR
+from sacflow.studies.richardson import MONOTONE
+
+__all__ = ["CERTIFIED_COLUMNS", "FINEST", "LIMIT", "NO_LIMIT", "OUTSIDE", "WITHIN", "Certificate",
+           "certify", "level_values"]
+
+#: One row per case and quantity: the shipped value (the traction beyond the box removed), the
+#: `together` limit (or its finest level where it has none) and its uncertainty, the window's
+#: shift L_W − f_W and its uncertainty, the transfer |d_s − d_w|, the combined limit and
+#: uncertainty, the shipped error against it and the verdict.
+CERTIFIED_COLUMNS: tuple[str, ...] = (
+    "case", "quantity", "unit", "shipped_value", "together_limit", "together_uncertainty",
+    "together_kind", "window_shift", "window_uncertainty", "transfer", "limit", "uncertainty",
+    "scale", "relative_uncertainty", "error", "value_error", "verdict",
+)
+#: ``together_kind`` of a `together` sequence with a Richardson limit, and of one without
+#: (oscillating, or no order), whose finest level stands in for it.
+LIMIT, FINEST = "limit", "finest"
+#: ``verdict``: within the target, outside it, or no limit to judge by (a diverging `together`
+#: sequence: its finest level stands in, with no uncertainty).
+WITHIN, OUTSIDE, NO_LIMIT = "within", "outside", "no limit"
+
+
+@dataclass(frozen=True)
+class Certificate:
+    """One quantity of one case against the limit of the grid and the window refined."""
+
+    case: str
+    quantity: str
+    unit: str
+    shipped_value: float
+    together_limit: float
+    together_uncertainty: float
+    together_kind: str
+    window_shift: float
+    window_uncertainty: float
+    transfer: float
+    limit: float
+    uncertainty: float
+    scale: float
+    relative_uncertainty: float
+    error: float
+    value_error: float
+    verdict: str
+
+    def row(self) -> dict[str, Any]:
+        """Return the certificate as a row of :data:`CERTIFIED_COLUMNS`."""
+        return {name: getattr(self, name) for name in CERTIFIED_COLUMNS}
+
+
+def certify(together: Mapping[str, Any], window: Mapping[str, Any], window_first: float,
+            shipped_value: float, transfer: float = math.nan, scale: float | None = None,
+            target: float = TARGET_ERROR) -> Certificate:
+    """Compare the shipped value with f* = L_T + (L_W − f_W) (the module's equations).
+
+    Parameters
+    ----------
+    together
+        The `together` summary row of the case and quantity (:func:`read_summary`): a
+        monotone one gives L_T ± U_T; otherwise its finest level stands in, with its
+        uncertainty (half the range of an oscillating sequence; none for a diverging one).
+    window
+        The `window` summary row of the same case and quantity (the traction beyond the box
+        left out); it must be monotone, with a limit L_W ± U_W.
+    window_first
+        That sequence's first level f_W, at the shipped window.
+    shipped_value
+        The shipped discretisation's value with the traction beyond the box removed.
+    transfer
+        |d_s − d_w|, or NaN when it was not measured.
+    scale
+        What the error and the uncertainty are relative to: |f*| by default, the largest
+        magnitude of the profile for a point of a profile that changes sign.
+    target
+        The relative error the certificate is for.
+
+    Raises
+    ------
+    SacflowError
+        When the window sequence has no limit (it did not converge monotonically).
+    """
+    if window["behaviour"] != MONOTONE or not math.isfinite(float(window["limit"])):
+        raise SacflowError(f"{window['case']} {window['quantity']}: the window sequence is "
+                           f"{window['behaviour']}, with no limit to correct the `together` "
+                           f"limit by; widen its windows (more levels) and run it again")
+    monotone = together["behaviour"] == MONOTONE and math.isfinite(float(together["limit"]))
+    together_limit = float(together["limit"] if monotone else together["finest_value"])
+    together_uncertainty = float(together["uncertainty"])
+    shift = float(window["limit"]) - window_first
+    limit = together_limit + shift
+    uncertainty = (together_uncertainty + float(window["uncertainty"])
+                   + (0.0 if math.isnan(transfer) else abs(transfer)))
+    value_error = (shipped_value - limit) / abs(limit) if limit != 0.0 else math.nan
+    scale = abs(limit) if scale is None else abs(scale)
+    error = (shipped_value - limit) / scale if scale != 0.0 else math.nan
+    return Certificate(
+        case=str(together["case"]), quantity=str(together["quantity"]),
+        unit=str(together["unit"]), shipped_value=shipped_value,
+        together_limit=together_limit, together_uncertainty=together_uncertainty,
+        together_kind=LIMIT if monotone else FINEST, window_shift=shift,
+        window_uncertainty=float(window["uncertainty"]), transfer=transfer, limit=limit,
+        uncertainty=uncertainty, scale=scale,
+        relative_uncertainty=uncertainty / scale if scale != 0.0 else math.nan,
+        error=error, value_error=value_error,
+        verdict=(NO_LIMIT if not math.isfinite(uncertainty)
+                 else WITHIN if abs(error) <= target else OUTSIDE))
+
+
+def level_values(path: Path, case: str, sequence: str, level: int) -> dict[str, float]:
+    """Return the quantities of one level of a levels table (``LEVEL_COLUMNS``): name -> value.
+
+    Raises
+    ------
+    SacflowError
+        When the table does not have that case, sequence and level.
+    """
+    if not path.is_file():
+        raise SacflowError(f"no levels table {path}: give the --table of a finished study")
+    with path.open(newline="", encoding="utf-8") as f:
+        values = {r["quantity"]: float(r["value"]) for r in csv.DictReader(f)
+                  if r["case"] == case and r["sequence"] == sequence
+                  and r["level"] == str(level) and r["value"]}
+    if not values:
+        raise SacflowError(f"{path} has no level {level} of {case}'s {sequence} sequence: "
+                           f"give the levels table the study wrote with that sequence")
+    return values

@@ -1,0 +1,147 @@
+"""The error of a shipped discretisation against the limit of the grid and the window refined.
+
+:func:`sacflow.studies.certify.certify` combines a `together` limit at a fixed window with the
+window sequence's shift. Checked on a model with separate errors of the grid and the window,
+f(h, W) = f* + C hᵖ + D W⁻ᵠ, whose limit f* is known: the two sequences are extrapolated by the
+study's own Richardson analysis, and the combination must find f* and the shipped error.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pytest
+
+from sacflow.errors import SacflowError
+from sacflow.studies.certify import (
+    FINEST,
+    LIMIT,
+    NO_LIMIT,
+    OUTSIDE,
+    WITHIN,
+    certify,
+    level_values,
+)
+from sacflow.studies.richardson import MONOTONE, extrapolate
+
+F_STAR, C_GRID, P_GRID, D_WINDOW, Q_WINDOW = 80.0, -3.0, 2.0, -5.0, 3.0
+#: The shipped window (in units of the contact radius) and the window sequence's ratio.
+W0, WINDOW_RATIO, GRID_RATIO = 2.0, 1.5, 2.0
+
+
+def model(h: float, window: float) -> float:
+    """f(h, W) with errors of the grid and the window that add."""
+    return F_STAR + C_GRID * h ** P_GRID + D_WINDOW * window ** -Q_WINDOW
+
+
+def summary_row(values: list[float], ratio: float, sequence: str) -> dict[str, object]:
+    """A summary row as :func:`read_summary` returns it, from the study's own extrapolation."""
+    fit = extrapolate(values, ratio)
+    return {"case": "model", "sequence": sequence, "quantity": "q", "unit": "m",
+            "behaviour": fit.behaviour, "limit": fit.limit, "uncertainty": fit.uncertainty,
+            "finest_value": values[-1]}
+
+
+def sequences(h_window: float) -> tuple[dict[str, object], dict[str, object], float]:
+    """The `together` row at W0, the window row at ``h_window`` and its first level."""
+    together = summary_row([model(GRID_RATIO ** -k, W0) for k in range(3)], GRID_RATIO,
+                           "together")
+    windows = [model(h_window, W0 * WINDOW_RATIO ** k) for k in range(3)]
+    return together, summary_row(windows, WINDOW_RATIO, "window"), windows[0]
+
+
+@pytest.mark.parametrize("h_window", [1.0, 0.5])
+def test_the_combined_limit_is_the_model_s(h_window):
+    together, window, first = sequences(h_window)
+    assert together["behaviour"] == MONOTONE and window["behaviour"] == MONOTONE
+    # Neither sequence alone finds f*: each keeps the other's error.
+    assert abs(together["limit"] - F_STAR) > 0.1
+    assert abs(window["limit"] - F_STAR) > 0.1
+    shipped = model(0.25, math.inf)
+    got = certify(together, window, first, shipped)
+    assert got.limit == pytest.approx(F_STAR, rel=1e-12)
+    assert got.error == pytest.approx((shipped - F_STAR) / F_STAR, rel=1e-9)
+    assert got.value_error == got.error and got.scale == pytest.approx(F_STAR)
+    assert got.together_kind == LIMIT
+
+
+def test_the_window_shift_is_what_the_shipped_window_misses():
+    together, window, first = sequences(1.0)
+    got = certify(together, window, first, F_STAR)
+    assert got.window_shift == pytest.approx(-D_WINDOW * W0 ** -Q_WINDOW, rel=1e-12)
+    assert got.error == pytest.approx(0.0, abs=1e-12) and got.verdict == WITHIN
+
+
+def test_uncertainties_add_with_the_transfer():
+    together, window, first = sequences(1.0)
+    together = {**together, "uncertainty": 0.2}
+    window = {**window, "uncertainty": 0.05}
+    got = certify(together, window, first, F_STAR, transfer=-0.03)
+    assert got.uncertainty == pytest.approx(0.28)
+    assert got.relative_uncertainty == pytest.approx(0.28 / F_STAR)
+    assert certify(together, window, first, F_STAR).uncertainty == pytest.approx(0.25)
+
+
+def test_a_profile_point_is_judged_against_the_profile_s_scale():
+    together, window, first = sequences(1.0)
+    shipped = F_STAR * 1.02
+    own = certify(together, window, first, shipped)
+    scaled = certify(together, window, first, shipped, scale=-10 * F_STAR)
+    assert own.error == pytest.approx(0.02) and own.verdict == OUTSIDE
+    assert scaled.error == pytest.approx(0.002) and scaled.verdict == WITHIN
+    assert scaled.value_error == pytest.approx(0.02)
+
+
+def test_a_together_sequence_without_a_limit_uses_its_finest_level():
+    together, window, first = sequences(1.0)
+    together = {**together, "behaviour": "oscillating", "limit": math.nan}
+    got = certify(together, window, first, F_STAR)
+    assert got.together_kind == FINEST
+    assert got.together_limit == together["finest_value"]
+    assert got.verdict == WITHIN  # an oscillating sequence keeps its spread as uncertainty
+    diverging = {**together, "behaviour": "diverging", "uncertainty": math.nan}
+    assert certify(diverging, window, first, F_STAR).verdict == NO_LIMIT
+
+
+def test_a_window_sequence_without_a_limit_is_refused():
+    together, window, first = sequences(1.0)
+    with pytest.raises(SacflowError, match="window sequence is oscillating"):
+        certify(together, {**window, "behaviour": "oscillating", "limit": math.nan}, first, 1.0)
+
+
+def test_level_values_reads_one_level_and_names_what_is_missing(tmp_path: Path):
+    table = tmp_path / "levels.csv"
+    table.write_text("case,sequence,level,quantity,value\n"
+                     "c,window,0,q,1.5\nc,window,1,q,1.6\nc,window,0,r,\n")
+    assert level_values(table, "c", "window", 0) == {"q": 1.5}
+    with pytest.raises(SacflowError, match="no level 2 of c's window"):
+        level_values(table, "c", "window", 2)
+    with pytest.raises(SacflowError, match="no levels table"):
+        level_values(tmp_path / "none.csv", "c", "window", 0)
+
+
+def test_the_stored_certificates_follow_from_the_stored_study_tables():
+    """``data/convergence-certified.csv`` is what ``pipelines/convergence_certify.py`` computes
+    from the study's tables under ``data/`` (a table changed without it fails here)."""
+    import csv
+    import sys
+
+    root = Path(__file__).resolve().parents[1]
+    sys.path.insert(0, str(root / "pipelines"))
+    import convergence_certify
+
+    with (root / "data" / "convergence-certified.csv").open(encoding="utf-8") as f:
+        stored = {(r["case"], r["quantity"]): r for r in csv.DictReader(f)}
+    found = [c for case, sources in convergence_certify.SOURCES.items()
+             for c in convergence_certify.certificates(case, sources)]
+    assert {(c.case, c.quantity) for c in found} == set(stored)
+    for c in found:
+        row = stored[(c.case, c.quantity)]
+        assert row["verdict"] == c.verdict
+        for name in ("limit", "uncertainty", "error", "shipped_value"):
+            value = getattr(c, name)
+            if row[name] == "":  # NaN is written as an empty cell
+                assert math.isnan(value), (c.case, c.quantity, name)
+            else:
+                assert float(row[name]) == pytest.approx(value, rel=1e-9), (c.case, name)
