@@ -9,7 +9,8 @@ with that limit. It runs nothing: every number comes from the study's tables und
 (:data:`SOURCES`, written by ``pipelines/convergence.py``; their commands are in
 ``data/README.md``).
 
-    python pipelines/convergence_certify.py --table data/convergence-certified.csv
+    python pipelines/convergence_certify.py --table data/convergence-certified.csv \
+        [--plot certified.png]
 """
 
 from __future__ import annotations
@@ -21,7 +22,13 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from sacflow.errors import SacflowError
-from sacflow.studies.certify import CERTIFIED_COLUMNS, Certificate, certify, level_values
+from sacflow.studies.certify import (
+    CERTIFIED_COLUMNS,
+    Certificate,
+    certify,
+    level_values,
+    plot_certificates,
+)
 from sacflow.studies.convergence_table import read_summary, write_csv
 
 DATA = Path(__file__).resolve().parents[1] / "data"
@@ -119,12 +126,20 @@ def certificates(case: str, sources: Sources, data: Path = DATA) -> list[Certifi
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--table", type=Path, help="write the certificates here (CSV)")
-    parser.add_argument("--overwrite", action="store_true", help="replace an existing table")
+    parser.add_argument("--plot", type=Path, help="write the errors' plot here (PNG)")
+    parser.add_argument("--overwrite", action="store_true",
+                        help="replace an existing table or plot")
     args = parser.parse_args(argv)
     try:
         found = [c for case, s in SOURCES.items() for c in certificates(case, s)]
         if args.table is not None:
             write_csv(args.table, [c.row() for c in found], CERTIFIED_COLUMNS, args.overwrite)
+        if args.plot is not None:
+            if args.plot.exists() and not args.overwrite:
+                raise SacflowError(f"{args.plot} exists: give --overwrite to replace it, or "
+                                   f"another path")
+            plot_certificates(found).savefig(args.plot, dpi=120)
+            print(f"plot: {args.plot}")
     except SacflowError as err:
         print(f"error: {err}", file=sys.stderr)
         return 1

@@ -22,6 +22,7 @@ from sacflow.studies.certify import (
     WITHIN,
     certify,
     level_values,
+    plot_certificates,
 )
 from sacflow.studies.richardson import MONOTONE, extrapolate
 
@@ -145,3 +146,34 @@ def test_the_stored_certificates_follow_from_the_stored_study_tables():
                 assert math.isnan(value), (c.case, c.quantity, name)
             else:
                 assert float(row[name]) == pytest.approx(value, rel=1e-9), (c.case, name)
+
+
+def test_the_plot_has_a_panel_per_case_and_a_point_per_certificate():
+    together, window, first = sequences(1.0)
+    diverging = {**together, "behaviour": "diverging", "uncertainty": math.nan}
+    found = [certify({**together, "case": case}, window, first, F_STAR * (1 + shift))
+             for case in ("a", "b") for shift in (0.0, 0.02)]
+    found.append(certify({**diverging, "case": "b", "quantity": "r"}, window, first, F_STAR))
+    fig = plot_certificates(found)
+    axes = fig.get_axes()
+    assert [ax.get_title() for ax in axes] == ["a", "b"]
+    assert [len(ax.containers) for ax in axes] == [2, 3]  # one error bar per certificate
+    assert [t.get_text() for t in axes[0].get_yticklabels()] == ["q", "r"]
+    # the "outside" point lies at its error, in per cent of its scale
+    x, _ = axes[0].containers[1].lines[0].get_data()
+    assert x[0] == pytest.approx(2.0)
+
+
+def test_the_script_keeps_an_existing_plot_and_says_how_to_replace_it(tmp_path, capsys):
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "pipelines"))
+    import convergence_certify
+
+    plot = tmp_path / "certified.png"
+    plot.write_bytes(b"the user's")
+    assert convergence_certify.main(["--plot", str(plot)]) == 1
+    assert plot.read_bytes() == b"the user's"
+    assert "--overwrite" in capsys.readouterr().err
+    assert convergence_certify.main(["--plot", str(plot), "--overwrite"]) == 0
+    assert plot.read_bytes().startswith(b"\x89PNG")

@@ -28,17 +28,20 @@ from __future__ import annotations
 
 import csv
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
+
+import numpy as np
+from matplotlib.figure import Figure
 
 from sacflow.errors import SacflowError
 from sacflow.studies.convergence_table import TARGET_ERROR
 from sacflow.studies.richardson import MONOTONE
 
 __all__ = ["CERTIFIED_COLUMNS", "FINEST", "LIMIT", "NO_LIMIT", "OUTSIDE", "WITHIN", "Certificate",
-           "certify", "level_values"]
+           "certify", "level_values", "plot_certificates"]
 
 #: One row per case and quantity: the shipped value (the traction beyond the box removed), the
 #: `together` limit (or its finest level where it has none) and its uncertainty, the window's
@@ -160,3 +163,36 @@ def level_values(path: Path, case: str, sequence: str, level: int) -> dict[str, 
         raise SacflowError(f"{path} has no level {level} of {case}'s {sequence} sequence: "
                            f"give the levels table the study wrote with that sequence")
     return values
+
+
+#: Marker of each verdict in :func:`plot_certificates`.
+VERDICT_MARKERS = {WITHIN: ("o", "tab:blue"), OUTSIDE: ("s", "tab:red"),
+                   NO_LIMIT: ("x", "tab:gray")}
+
+
+def plot_certificates(certificates: Sequence[Certificate],
+                      target: float = TARGET_ERROR) -> Figure:
+    """Plot each case's errors ± the limits' uncertainties against the ±``target`` band.
+
+    One panel per case, one row per quantity: the error relative to its scale (per cent),
+    a horizontal bar of the uncertainty (none for "no limit"), the marker of its verdict, the
+    band ±``target`` shaded. What a certificate table says, at a glance.
+    """
+    cases = list(dict.fromkeys(c.case for c in certificates))
+    fig = Figure(figsize=(6.4 * max(len(cases), 1) / 1.6, 5.2), layout="constrained")
+    axes = fig.subplots(1, max(len(cases), 1), sharey=True, squeeze=False)[0]
+    names = list(dict.fromkeys(c.quantity for c in certificates))
+    for ax, case in zip(axes, cases, strict=False):
+        ax.axvspan(-100 * target, 100 * target, color="tab:green", alpha=0.12)
+        ax.axvline(0.0, color="k", lw=0.6)
+        for c in (c for c in certificates if c.case == case):
+            marker, colour = VERDICT_MARKERS[c.verdict]
+            spread = 100 * c.relative_uncertainty if np.isfinite(c.relative_uncertainty) else None
+            ax.errorbar(100 * c.error, names.index(c.quantity), xerr=spread, fmt=marker,
+                        color=colour, capsize=3)
+        ax.set_title(case, fontsize="small")
+        ax.set_xlabel("error / scale [%]")
+        ax.grid(True, axis="x", alpha=0.3)
+    axes[0].set_yticks(range(len(names)), names, fontsize="x-small")
+    axes[0].invert_yaxis()
+    return fig
