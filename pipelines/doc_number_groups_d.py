@@ -21,6 +21,10 @@ CERTIFIED_COLUMNS = {"shipped_value": "shipped", "limit": "limit", "error": "err
                      "value_error": "value_error", "relative_uncertainty": "uncertainty"}
 #: Columns recorded relative to the certificate's scale: column -> key suffix.
 SCALED_COLUMNS = {"window_shift": "window_shift", "transfer": "transfer"}
+#: The 650 mN case's window sequence at the study's base grid, without and with the traction
+#: beyond the box (their shipped level is the config's grid): the transfer measured for the
+#: case whose certificate has none (its window sequence runs at its shipped grid).
+BASE_650 = ("convergence-window-650-base", "convergence-window-650-base-far")
 
 
 def convergence_certified(out: Path) -> dict[str, float]:
@@ -50,7 +54,26 @@ def convergence_certified(out: Path) -> dict[str, float]:
             name = f"cert_{case}_largest_transfer"
             numbers[name] = max(numbers.get(name, 0.0), float(r["transfer"]) / scale)
     numbers["cert_count_with_limit"] = numbers["cert_count_within"] + numbers["cert_count_outside"]
+    numbers["cert_650mN_base_transfer_max"] = _base_transfer()
     return numbers
+
+
+def _base_transfer() -> float:
+    """Largest |d_s − d_b| / scale over the 650 mN case's certified quantities: the change the
+    traction beyond the box makes at the shipped grid (d_s) against the study's base grid (d_b),
+    from the window sequences of :data:`BASE_650`."""
+    (off, on) = ({r["quantity"]: r for r in data_rows(f"{name}-summary.csv")} for name in BASE_650)
+    (first_off, first_on) = ({r["quantity"]: float(r["value"]) for r in data_rows(f"{name}.csv")
+                              if r["level"] == "0" and r["value"]} for name in BASE_650)
+    largest = 0.0
+    for r in data_rows("convergence-certified.csv"):
+        q = r["quantity"]
+        if r["case"] != "nanoindentation-650mN" or q not in first_off or q not in first_on:
+            continue
+        shipped = float(on[q]["shipped_value"]) - float(off[q]["shipped_value"])
+        base = first_on[q] - first_off[q]
+        largest = max(largest, abs(shipped - base) / float(r["scale"]))
+    return largest
 
 
 #: The groups of this module: name -> (speed, function of the output folder).
