@@ -28,8 +28,9 @@ from sacflow.studies.certify import (
     certify,
     level_values,
     plot_certificates,
+    transfer,
 )
-from sacflow.studies.convergence_table import read_summary, write_csv
+from sacflow.studies.convergence_table import read_summary, write_csv, write_figure
 
 DATA = Path(__file__).resolve().parents[1] / "data"
 
@@ -113,9 +114,9 @@ def certificates(case: str, sources: Sources, data: Path = DATA) -> list[Certifi
         assert fit is not None and win is not None and far is not None
         if not math.isfinite(far["shipped_value"]) or not math.isfinite(fit["shipped_value"]):
             continue
-        transfer = abs((far["shipped_value"] - fit["shipped_value"])
-                       - (first_on[name] - first_off[name]))
-        certificate = certify(fit, win, first_off[name], far["shipped_value"], transfer,
+        moved = transfer(far["shipped_value"], fit["shipped_value"], first_on[name],
+                         first_off[name])
+        certificate = certify(fit, win, first_off[name], far["shipped_value"], moved,
                               scale if name.startswith(PROFILE) else None)
         if name == PROFILE_SCALE:
             scale = certificate.limit
@@ -135,10 +136,7 @@ def main(argv: list[str] | None = None) -> int:
         if args.table is not None:
             write_csv(args.table, [c.row() for c in found], CERTIFIED_COLUMNS, args.overwrite)
         if args.plot is not None:
-            if args.plot.exists() and not args.overwrite:
-                raise SacflowError(f"{args.plot} exists: give --overwrite to replace it, or "
-                                   f"another path")
-            plot_certificates(found).savefig(args.plot, dpi=120)
+            write_figure(plot_certificates(found), args.plot, args.overwrite)
             print(f"plot: {args.plot}")
     except SacflowError as err:
         print(f"error: {err}", file=sys.stderr)

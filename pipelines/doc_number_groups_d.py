@@ -15,6 +15,8 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from doc_number_groups_c import CELL_MEAN_CASES, REFINED_QUANTITIES, data_rows  # noqa: E402
 
+from sacflow.studies.certify import transfer  # noqa: E402
+
 #: The certificate's columns recorded: column -> key suffix (the errors and uncertainties
 #: relative to the certificate's scale, the value error to the limit itself).
 CERTIFIED_COLUMNS = {"shipped_value": "shipped", "limit": "limit", "error": "error",
@@ -70,9 +72,9 @@ def _base_transfer() -> float:
         q = r["quantity"]
         if r["case"] != "nanoindentation-650mN" or q not in first_off or q not in first_on:
             continue
-        shipped = float(on[q]["shipped_value"]) - float(off[q]["shipped_value"])
-        base = first_on[q] - first_off[q]
-        largest = max(largest, abs(shipped - base) / float(r["scale"]))
+        moved = transfer(float(on[q]["shipped_value"]), float(off[q]["shipped_value"]),
+                         first_on[q], first_off[q])
+        largest = max(largest, moved / float(r["scale"]))
     return largest
 
 

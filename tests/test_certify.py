@@ -177,3 +177,16 @@ def test_the_script_keeps_an_existing_plot_and_says_how_to_replace_it(tmp_path, 
     assert "--overwrite" in capsys.readouterr().err
     assert convergence_certify.main(["--plot", str(plot), "--overwrite"]) == 0
     assert plot.read_bytes().startswith(b"\x89PNG")
+
+
+def test_a_plot_that_cannot_be_written_is_a_message_and_leaves_nothing(tmp_path):
+    from matplotlib.figure import Figure
+
+    from sacflow.studies.convergence_table import write_figure
+
+    blocked = tmp_path / "a-file"
+    blocked.write_text("not a folder")
+    with pytest.raises(SacflowError, match="cannot write the plot"):
+        write_figure(Figure(), blocked / "certified.png")
+    write_figure(Figure(), tmp_path / "new" / "certified.png")
+    assert sorted(p.name for p in (tmp_path / "new").iterdir()) == ["certified.png"]

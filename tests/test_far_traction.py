@@ -190,28 +190,47 @@ def test_a_run_with_the_traction_beyond_its_box_is_that_of_a_box_twice_as_wide()
     assert abs(far_print - wide_print) < 0.1 * abs(bare_print - wide_print)
 
 
+def indentation_case(grid: dict[str, int], beyond: bool):
+    """A one-increment linear-hardening indentation on ``grid``, with or without the option."""
+    from sacflow.storage.case_file import case_from_dict
+
+    return case_from_dict({
+        "name": "far-traction-memory",
+        "body": {"E": E, "nu": NU, "hardening": {"law": "linear", "yield_stress": 4.2e9,
+                                                   "modulus": 10.5e9}},
+        "counterbody": {"kind": "rigid", "radius": 105e-6},
+        "grid": grid,
+        "load_path": [{"kind": "load", "to": 0.65, "increments": 1}],
+        "solver": {"traction_beyond_box": beyond},
+    })
+
+
 def test_the_memory_estimate_counts_the_coarse_operator():
     """``sacflow validate`` and the run's memory check count the second operator: the estimate
     of a case with the option has its item, sized by the coarse operator's shape, and is larger
     by at least that operator's spectra."""
     from sacflow.config.solver_inputs import estimate_case_memory
     from sacflow.kernels.eigenstrain_memory import operator_bytes
-    from sacflow.storage.case_file import case_from_dict
 
-    def case(beyond: bool):
-        return case_from_dict({
-            "name": "far-traction-memory",
-            "body": {"E": E, "nu": NU, "hardening": {"law": "linear", "yield_stress": 4.2e9,
-                                                       "modulus": 10.5e9}},
-            "counterbody": {"kind": "rigid", "radius": 105e-6},
-            "grid": {"nx": 64, "ny": 64, "nz": 32},
-            "load_path": [{"kind": "load", "to": 0.65, "increments": 1}],
-            "solver": {"traction_beyond_box": beyond},
-        })
-
-    bare, far = estimate_case_memory(case(False)), estimate_case_memory(case(True))
+    grid = {"nx": 64, "ny": 64, "nz": 32}
+    bare = estimate_case_memory(indentation_case(grid, False))
+    far = estimate_case_memory(indentation_case(grid, True))
     items = {item.name: item.nbytes for item in far.items}
     assert "far-traction operator" in items
     assert "far-traction operator" not in {item.name for item in bare.items}
-    spectra = operator_bytes(FarTraction.shape_for((64, 64, 32)))
+    cell = indentation_case(grid, True).cell_size()
+    spectra = operator_bytes(FarTraction.shape_for((64, 64, 32), cell))
     assert far.total - bare.total >= spectra
+
+
+def test_the_memory_estimate_sizes_the_operator_the_run_builds_on_oblong_cells():
+    """Cells twice as wide along x2 as along x1 (64 × 32 cells over a square window): the
+    margins, a share of the narrower side in whole super-cells of each axis, differ from square
+    cells', and the estimate must name the operator the run builds."""
+    from sacflow.config.solver_inputs import estimate_case_memory, simulation_for
+
+    case = indentation_case({"nx": 64, "ny": 32, "nz": 32}, True)
+    built = simulation_for(case).operators.eigenstrain._far.operator.shape
+    assert built != FarTraction.shape_for((64, 32, 32), (1.0, 1.0))  # square cells: another
+    item = next(i for i in estimate_case_memory(case).items if i.name == "far-traction operator")
+    assert f"{built[0]} × {built[1]} × {built[2]} super-cells" in item.what

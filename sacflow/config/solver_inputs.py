@@ -282,6 +282,11 @@ def check_case_memory(case: Case, available: int | None = None) -> MemoryEstimat
                         available, _far_traction(case))
 
 
-def _far_traction(case: Case) -> bool:
-    """Whether a run of ``case`` builds the coarse operator of the traction beyond the box."""
-    return _eigenstrain_operator(case) and case.solver.traction_beyond_box
+def _far_traction(case: Case) -> tuple[float, float] | None:
+    """Return the surface cells' sizes if ``case`` builds the far-traction operator, else None.
+
+    That coarse operator of the traction beyond the box has margins that depend on them.
+    """
+    if _eigenstrain_operator(case) and case.solver.traction_beyond_box:
+        return case.cell_size()
+    return None

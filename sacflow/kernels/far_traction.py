@@ -158,11 +158,11 @@ class FarTraction:
         self._box = (slice(m1, m1 + self.coarse[0]), slice(m2, m2 + self.coarse[1]))
 
     @staticmethod
-    def shape_for(shape: Sequence[int], spacing: Sequence[float] = (1.0, 1.0, 1.0)
-                  ) -> tuple[int, int, int]:
-        """Return the coarse operator's shape for a box of ``shape``.
+    def shape_for(shape: Sequence[int], spacing: Sequence[float]) -> tuple[int, int, int]:
+        """Return the coarse operator's shape for a box of ``shape`` with cells of ``spacing``.
 
-        For memory estimates: without ``spacing``, square cells.
+        ``spacing`` is (d1, d2[, d3]); the memory estimate sizes the operator with it before it
+        is built.
         """
         n1, n2, n3 = (int(n) for n in shape)
         _, (k1, k2), (m1, m2) = coarse_layout((n1, n2), tuple(spacing)[:2])

@@ -213,17 +213,19 @@ def _eigenstrain(grid: BodyGrid) -> tuple[MemoryItem, MemoryItem]:
     return operator, setup
 
 
-def _far_traction(grid: BodyGrid) -> tuple[MemoryItem, MemoryItem]:
+def _far_traction(grid: BodyGrid, cell: tuple[float, float]
+                  ) -> tuple[MemoryItem, MemoryItem]:
     """Size the coarse, wider operator of the traction beyond the box, and its set-up.
 
     :class:`~sacflow.kernels.far_traction.FarTraction`: an eigenstrain operator of super-cells
     on a footprint three times the box's, and the stress it adds (one volume tensor field,
-    kept from the first half of an application to the second).
+    kept from the first half of an application to the second). Its margins depend on the
+    cells' lateral sizes ``cell`` (d1, d2) [m].
     """
     from sacflow.kernels.eigenstrain_memory import operator_bytes, setup_bytes
     from sacflow.kernels.far_traction import FarTraction
 
-    shape = FarTraction.shape_for((*grid.body, grid.nz))
+    shape = FarTraction.shape_for((*grid.body, grid.nz), cell)
     operator = MemoryItem(
         "far-traction operator", operator_bytes(shape) + _tensor_bytes(grid),
         f"the traction beyond the box: {shape[0]} × {shape[1]} × {shape[2]} super-cells",
@@ -278,7 +280,7 @@ def _states(grid: BodyGrid, plastic: bool) -> MemoryItem:
 
 
 def estimate_memory(grid: BodyGrid, plastic: bool, anderson_depth: int,
-                    far_traction: bool = False) -> MemoryEstimate:
+                    far_traction: tuple[float, float] | None = None) -> MemoryEstimate:
     """Estimated peak resident memory of a run [bytes], by item.
 
     The peak is that of the heavier of two phases: the set-up (operators built, with the
@@ -293,9 +295,10 @@ def estimate_memory(grid: BodyGrid, plastic: bool, anderson_depth: int,
         Whether the body can yield (the eigenstrain operator and the plastic state).
     anderson_depth : int
         Anderson mixing history depth of the plastic fixed point (0: plain sweeps).
-    far_traction : bool, optional
-        Whether the eigenstrain operator removes the traction beyond the box
-        (``solver.traction_beyond_box``: a second, coarse operator).
+    far_traction : (float, float), optional
+        The surface cells' sizes (d1, d2) [m] when the eigenstrain operator removes the
+        traction beyond the box (``solver.traction_beyond_box``: a second, coarse operator
+        whose margins depend on them); None without it.
 
     Returns
     -------
@@ -319,8 +322,8 @@ def estimate_memory(grid: BodyGrid, plastic: bool, anderson_depth: int,
         phases.append([*base, eigen_op, eigen_setup])
         state, contingent = _solver_state(grid, anderson_depth)
         running += [eigen_op, state]
-        if far_traction:
-            far_op, far_setup = _far_traction(grid)
+        if far_traction is not None:
+            far_op, far_setup = _far_traction(grid, far_traction)
             phases.append([*base, eigen_op, far_op, far_setup])
             running.append(far_op)
     phases.append(running)
@@ -333,7 +336,8 @@ def estimate_memory(grid: BodyGrid, plastic: bool, anderson_depth: int,
 
 
 def check_memory(grid: BodyGrid, plastic: bool, anderson_depth: int,
-                 available: int | None = None, far_traction: bool = False) -> MemoryEstimate:
+                 available: int | None = None,
+                 far_traction: tuple[float, float] | None = None) -> MemoryEstimate:
     """Estimate the memory of a run and refuse it when the machine does not have it.
 
     Parameters

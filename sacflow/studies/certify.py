@@ -38,10 +38,10 @@ from matplotlib.figure import Figure
 
 from sacflow.errors import SacflowError
 from sacflow.studies.convergence_table import TARGET_ERROR
-from sacflow.studies.richardson import MONOTONE
+from sacflow.studies.richardson import MONOTONE, relative_errors
 
 __all__ = ["CERTIFIED_COLUMNS", "FINEST", "LIMIT", "NO_LIMIT", "OUTSIDE", "WITHIN", "Certificate",
-           "certify", "level_values", "plot_certificates"]
+           "certify", "level_values", "plot_certificates", "transfer"]
 
 #: One row per case and quantity: the shipped value (the traction beyond the box removed), the
 #: `together` limit (or its finest level where it has none) and its uncertainty, the window's
@@ -129,7 +129,7 @@ def certify(together: Mapping[str, Any], window: Mapping[str, Any], window_first
     limit = together_limit + shift
     uncertainty = (together_uncertainty + float(window["uncertainty"])
                    + (0.0 if math.isnan(transfer) else abs(transfer)))
-    value_error = (shipped_value - limit) / abs(limit) if limit != 0.0 else math.nan
+    value_error = relative_errors([shipped_value], limit)[0]
     scale = abs(limit) if scale is None else abs(scale)
     error = (shipped_value - limit) / scale if scale != 0.0 else math.nan
     return Certificate(
@@ -143,6 +143,16 @@ def certify(together: Mapping[str, Any], window: Mapping[str, Any], window_first
         error=error, value_error=value_error,
         verdict=(NO_LIMIT if not math.isfinite(uncertainty)
                  else WITHIN if abs(error) <= target else OUTSIDE))
+
+
+def transfer(shipped_on: float, shipped_off: float, first_on: float, first_off: float) -> float:
+    """Return |d_s − d_w|, how much the window's error moves with the grid (module notes).
+
+    d_s = ``shipped_on − shipped_off`` is the change removing the traction beyond the box
+    makes at the shipped grid, d_w = ``first_on − first_off`` the one it makes at the window
+    sequence's grid (its first level).
+    """
+    return abs((shipped_on - shipped_off) - (first_on - first_off))
 
 
 def level_values(path: Path, case: str, sequence: str, level: int) -> dict[str, float]:

@@ -54,6 +54,7 @@ __all__ = [
     "read_summary",
     "summary_rows",
     "write_csv",
+    "write_figure",
 ]
 
 LEVEL_COLUMNS: tuple[str, ...] = (
@@ -301,6 +302,31 @@ def write_csv(path: Path, rows: Sequence[Mapping[str, Any]], columns: Sequence[s
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
+
+
+def write_figure(figure: Figure, path: Path, overwrite: bool = False) -> None:
+    """Write ``figure`` to ``path`` as PNG, whole or not at all (a temporary file, renamed).
+
+    Raises
+    ------
+    SacflowError
+        When ``path`` exists and ``overwrite`` is false (a user's file is never replaced
+        without being asked), or when it cannot be written.
+    """
+    if path.exists() and not overwrite:
+        raise SacflowError(f"{path} exists: give --overwrite to replace it, or another path")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+        os.close(fd)
+        try:
+            figure.savefig(tmp, dpi=120, format="png")
+            os.replace(tmp, path)
+        finally:
+            if os.path.exists(tmp):
+                os.remove(tmp)
+    except OSError as err:
+        raise SacflowError(f"cannot write the plot {path}: {err.strerror or err}") from None
 
 
 def _cell(value: Any) -> Any:
