@@ -70,7 +70,7 @@ SOURCES = {
         "convergence-shipped-summary.csv", "convergence-window-base.csv",
         "convergence-window-base-far.csv", "convergence-window-base-far-summary.csv"),
     "dent-from-indentation-press": Sources(
-        "convergence-press-steps-summary.csv", "convergence-press-window.csv",
+        "convergence-press-steps4-summary.csv", "convergence-press-window.csv",
         "convergence-press-window-far.csv", "convergence-press-shipped-far-summary.csv"),
 }
 #: The quantities certified: the issue's (the approach at the peak load, the print depth, the

@@ -338,7 +338,7 @@ def convergence_check(out: Path) -> dict[str, float]:
 #: linear-hardening case's `together` at h = 1, 1/2, 1/4 and 1/5, and its increments on the
 #: 80² × 48 grid from 20 + 10; the press's `together` at h = 1, 2/3 and 1/2, its increments
 #: at its shipped 96² × 128 cells, and its lateral cells and layers from there with 40 + 12;
-#: the press's lateral cells to a fourth level, its window, the 650 mN case's window at its
+#: the press's lateral cells and its `together` to a fourth level, its window, the 650 mN case's window at its
 #: shipped grid and the 190 mN and linear-hardening cases' at the study's base grid).
 REFINED_TABLES = {
     "refined": ("convergence-refined-summary.csv", "convergence-refined.csv"),
@@ -357,6 +357,7 @@ REFINED_TABLES = {
                  "convergence-press-increments.csv"),
     "pressgrid": ("convergence-press-grid-summary.csv", "convergence-press-grid.csv"),
     "presslat4": ("convergence-press-lateral4-summary.csv", "convergence-press-lateral4.csv"),
+    "presssteps4": ("convergence-press-steps4-summary.csv", "convergence-press-steps4.csv"),
     "presswin": ("convergence-press-window-summary.csv", "convergence-press-window.csv"),
     "win650": ("convergence-window-650-summary.csv", "convergence-window-650.csv"),
     "winbase": ("convergence-window-base-summary.csv", "convergence-window-base.csv"),
