@@ -338,8 +338,9 @@ def convergence_check(out: Path) -> dict[str, float]:
 #: linear-hardening case's `together` at h = 1, 1/2, 1/4 and 1/5, and its increments on the
 #: 80² × 48 grid from 20 + 10; the press's `together` at h = 1, 2/3 and 1/2, its increments
 #: at its shipped 96² × 128 cells, and its lateral cells and layers from there with 40 + 12;
-#: the press's lateral cells and its `together` to a fourth level, its window, the 650 mN case's window at its
-#: shipped grid and the 190 mN and linear-hardening cases' at the study's base grid).
+#: the press's lateral cells and its `together` to a fourth level, its window, the 650 mN
+#: case's window at its shipped grid and the 190 mN and linear-hardening cases' at the study's
+#: base grid).
 REFINED_TABLES = {
     "refined": ("convergence-refined-summary.csv", "convergence-refined.csv"),
     "layers4": ("convergence-refined-layers4-summary.csv", "convergence-refined-layers4.csv"),
