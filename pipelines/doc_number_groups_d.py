@@ -1,6 +1,8 @@
 """Groups of ``pipelines/record_doc_numbers.py`` for docs/convergence.md's section on the
 shipped configs against the limits of the grid and the window refined
-(``data/convergence-certified.csv``, written by ``pipelines/convergence_certify.py``; #32).
+(``data/convergence-certified.csv``, written by ``pipelines/convergence_certify.py``; #32), and
+for the press's increments split between the halves of its load
+(``data/press-load-phases.csv``, written by ``pipelines/press_load_phases.py``).
 
 Each group is a function of the output folder (unused: the numbers are read from ``data/``)
 returning ``{key: value in SI units}``; ``record_doc_numbers.GROUPS`` registers it.
@@ -78,5 +80,24 @@ def _base_transfer() -> float:
     return largest
 
 
+def press_load_phases(out: Path) -> dict[str, float]:
+    """Each schedule's quantities of ``data/press-load-phases.csv``
+    (``phases_{schedule}_{stem}``) and their error against the reference schedule, relative to
+    it (``_error``): the early and late schedules' errors are the second and the first half's
+    parts of the uniform schedule's (``pipelines/press_load_phases.py``)."""
+    rows = {r["schedule"]: r for r in data_rows("press-load-phases.csv")}
+    numbers: dict[str, float] = {}
+    for quantity, stem in REFINED_QUANTITIES.items():
+        if quantity not in rows["reference"]:
+            continue
+        reference = float(rows["reference"][quantity])
+        for schedule, row in rows.items():
+            value = float(row[quantity])
+            numbers[f"phases_{schedule}_{stem}"] = value
+            numbers[f"phases_{schedule}_{stem}_error"] = (value - reference) / reference
+    return numbers
+
+
 #: The groups of this module: name -> (speed, function of the output folder).
-GROUPS = {"convergence_certified": ("fast", convergence_certified)}
+GROUPS = {"convergence_certified": ("fast", convergence_certified),
+          "press_load_phases": ("fast", press_load_phases)}
