@@ -31,7 +31,6 @@ import argparse
 import math
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
@@ -46,7 +45,11 @@ from sacflow.studies.convergence import (
     measure,
     shipped_discretisation,
 )
-from sacflow.studies.convergence_table import write_csv
+from sacflow.studies.convergence_table import (
+    add_table_arguments,
+    refuse_existing_table,
+    write_csv,
+)
 
 CASE = STUDY_CASES["dent-from-indentation-press"]
 #: Default runs (cells per side, window in Hertz radii): at 48² cells the windows 3 to 3.35 a
@@ -117,17 +120,14 @@ def parse(argv: list[str]) -> argparse.Namespace:
     parser.add_argument("--layers", type=int, default=64, help="layers over the box (64)")
     parser.add_argument("--increments", type=int, nargs=2, default=(20, 6),
                         metavar=("LOAD", "UNLOAD"), help="load and unload increments (20 6)")
-    parser.add_argument("--table", type=Path, help="CSV to write (refused if it exists)")
-    parser.add_argument("--overwrite", action="store_true", help="replace --table")
+    add_table_arguments(parser)
     return parser.parse_args(argv)
 
 
 def main(argv: list[str]) -> None:
     """Run each window, print its line, write the table."""
     args = parse(argv)
-    if args.table is not None and args.table.exists() and not args.overwrite:
-        raise SystemExit(f"error: {args.table} exists; nothing was changed. "
-                         "To replace it, run again with --overwrite")
+    refuse_existing_table(args.table, args.overwrite)
     try:  # every run's case first: a grid or window the press cannot run stops before any
         cases = [case_for(nx, args.layers, tuple(args.increments), width)
                  for nx, width in args.runs]

@@ -30,14 +30,17 @@ from __future__ import annotations
 import argparse
 import sys
 import time
-from pathlib import Path
 from typing import Any
 
 from sacflow.config.case import Case
 from sacflow.config.solver_inputs import simulation_for
 from sacflow.errors import SacflowError
 from sacflow.studies.convergence import STUDY_CASES, base_case, measure, shipped_discretisation
-from sacflow.studies.convergence_table import write_csv
+from sacflow.studies.convergence_table import (
+    add_table_arguments,
+    refuse_existing_table,
+    write_csv,
+)
 
 CASE = STUDY_CASES["dent-from-indentation-press"]
 #: The schedules: name -> refinement factors of the first and second half of the load.
@@ -97,17 +100,14 @@ def parse(argv: list[str]) -> argparse.Namespace:
                         help="load increments of the uniform schedule, even (20)")
     parser.add_argument("--factor", type=int, default=4,
                         help="refinement of a refined half (4)")
-    parser.add_argument("--table", type=Path, help="CSV to write (refused if it exists)")
-    parser.add_argument("--overwrite", action="store_true", help="replace --table")
+    add_table_arguments(parser)
     return parser.parse_args(argv)
 
 
 def main(argv: list[str]) -> None:
     """Run the four schedules, print their lines, write the table."""
     args = parse(argv)
-    if args.table is not None and args.table.exists() and not args.overwrite:
-        raise SystemExit(f"error: {args.table} exists; nothing was changed. "
-                         "To replace it, run again with --overwrite")
+    refuse_existing_table(args.table, args.overwrite)
     try:  # every case first: a grid or schedule the press cannot run stops before any
         cases = {name: case_for(name, *args.grid, args.increments, args.factor)
                  for name in SCHEDULES}

@@ -15,6 +15,7 @@ Two tidy tables, written as CSV:
 
 from __future__ import annotations
 
+import argparse
 import csv
 import math
 import os
@@ -276,6 +277,22 @@ def check_rows(case: str, sequence: str, step: float, level: Discretisation,
             "discrepancy": error - predicted_error,
         })
     return rows
+
+
+def add_table_arguments(parser: argparse.ArgumentParser) -> None:
+    """Add a study script's ``--table CSV`` and ``--overwrite`` to ``parser``."""
+    parser.add_argument("--table", type=Path, help="CSV to write (refused if it exists)")
+    parser.add_argument("--overwrite", action="store_true", help="replace --table")
+
+
+def refuse_existing_table(path: Path | None, overwrite: bool) -> None:
+    """Stop a study script before it runs anything when its ``--table`` exists.
+
+    A user's file is never replaced without ``--overwrite``: one line, nothing changed.
+    """
+    if path is not None and path.exists() and not overwrite:
+        raise SystemExit(f"error: {path} exists; nothing was changed. "
+                         "To replace it, run again with --overwrite")
 
 
 def write_csv(path: Path, rows: Sequence[Mapping[str, Any]], columns: Sequence[str],
