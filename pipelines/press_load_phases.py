@@ -18,8 +18,7 @@ what each half contributes, and refining a half K times divides its part by abou
 ``reference`` the first half's, and ``uniform`` − ``reference`` about their sum. A quantity whose
 two parts have opposite signs converges faster under uniform refinement than either part would
 suggest; one whose error sits in one half is the one a schedule refined there serves. The
-unloading is elastic (its increments change no quantity, within the solver's tolerances), and
-keeps the config's increments.
+unloading keeps the config's increments: the schedules differ in the loading only.
 
 It prints each schedule's quantities (:func:`sacflow.studies.convergence.measure`) and writes
 them to ``--table`` (refused if the file exists, unless ``--overwrite``).
@@ -43,7 +42,7 @@ from sacflow.studies.convergence_table import (
 )
 
 CASE = STUDY_CASES["dent-from-indentation-press"]
-#: The schedules: name -> refinement factors of the first and second half of the load.
+#: The schedules: name -> whether the first and the second half of the load are refined.
 SCHEDULES = {"uniform": (False, False), "early": (True, False), "late": (False, True),
              "reference": (True, True)}
 #: Quantities printed on each line (all of :func:`measure`'s go to the table).
@@ -121,7 +120,10 @@ def main(argv: list[str]) -> None:
         print(f"{name} ({row['first_half']} + {row['second_half']}): {row['seconds']:.0f} s, "
               f"{shown}", flush=True)
     if args.table is not None:
-        write_csv(args.table, rows, list(rows[0]), args.overwrite)
+        try:
+            write_csv(args.table, rows, list(rows[0]), args.overwrite)
+        except SacflowError as exc:  # the table appeared, or its folder went, during the runs
+            raise SystemExit(f"error: {exc}") from None
         print(f"table: {args.table}")
 
 

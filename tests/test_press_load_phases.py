@@ -81,3 +81,20 @@ def test_the_halves_errors_add_up_and_the_table_is_kept(tmp_path, capsys):
         module.main([*TINY, "--table", str(table)])
     assert table.read_bytes() == before
     assert "reference (2 + 2)" in capsys.readouterr().out
+
+
+def test_a_table_that_cannot_be_written_stops_before_anything_runs(tmp_path, capsys):
+    """A ``--table`` under a file (not a folder) ends in one line before any run; the shared
+    CSV writer names such a path too instead of raising an OSError."""
+    from sacflow.errors import SacflowError
+    from sacflow.studies.convergence_table import write_csv
+
+    module = load_script()
+    blocker = tmp_path / "a-file"
+    blocker.write_text("the user's file\n")
+    with pytest.raises(SystemExit, match="is not a folder this user can write"):
+        module.main([*TINY, "--table", str(blocker / "phases.csv")])
+    assert capsys.readouterr().out == ""  # nothing ran
+    with pytest.raises(SacflowError, match="cannot write the table"):
+        write_csv(blocker / "phases.csv", [{"a": 1.0}], ["a"])
+    assert blocker.read_text() == "the user's file\n"

@@ -46,6 +46,7 @@ __all__ = [
     "SUMMARY_COLUMNS",
     "TARGET_ERROR",
     "SequenceResult",
+    "add_table_arguments",
     "advised_step",
     "check_rows",
     "level_rows",
@@ -53,6 +54,7 @@ __all__ = [
     "plot_errors",
     "plot_profiles",
     "read_summary",
+    "refuse_existing_table",
     "summary_rows",
     "write_csv",
     "write_figure",
@@ -286,13 +288,22 @@ def add_table_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def refuse_existing_table(path: Path | None, overwrite: bool) -> None:
-    """Stop a study script before it runs anything when its ``--table`` exists.
+    """Stop a study script before it runs anything when its ``--table`` cannot be written.
 
-    A user's file is never replaced without ``--overwrite``: one line, nothing changed.
+    A user's file is never replaced without ``--overwrite``, and a table whose folder cannot
+    be made or written would otherwise fail only after the runs: one line, nothing changed.
     """
-    if path is not None and path.exists() and not overwrite:
+    if path is None:
+        return
+    if path.exists() and not overwrite:
         raise SystemExit(f"error: {path} exists; nothing was changed. "
                          "To replace it, run again with --overwrite")
+    folder = path.absolute().parent
+    while not folder.exists():  # the nearest folder that exists must take the new ones
+        folder = folder.parent
+    if not folder.is_dir() or not os.access(folder, os.W_OK | os.X_OK):
+        raise SystemExit(f"error: cannot write the table {path}: {folder} is not a folder "
+                         "this user can write; nothing was run. Give another --table")
 
 
 def write_csv(path: Path, rows: Sequence[Mapping[str, Any]], columns: Sequence[str],
@@ -302,13 +313,16 @@ def write_csv(path: Path, rows: Sequence[Mapping[str, Any]], columns: Sequence[s
     Raises
     ------
     SacflowError
-        When ``path`` exists and ``overwrite`` is false: a user's file is never replaced
-        without being asked.
+        When ``path`` exists and ``overwrite`` is false (a user's file is never replaced
+        without being asked), or when its folder cannot be made or written.
     """
     if path.exists() and not overwrite:
         raise SacflowError(f"{path} exists: give --overwrite to replace it, or another path")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    except OSError as err:
+        raise SacflowError(f"cannot write the table {path}: {err.strerror or err}") from None
     try:
         with os.fdopen(fd, "w", newline="", encoding="utf-8") as f:
             writer = csv.DictWriter(f, fieldnames=list(columns))
