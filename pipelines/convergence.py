@@ -260,20 +260,26 @@ def case_setup(args: argparse.Namespace, name: str
 
 def check(args: argparse.Namespace) -> int:
     """Run the level at ``--check``'s step of each case and sequence; compare with the model."""
-    if args.check_table.exists() and not args.overwrite:
+    if args.check_table.exists() and not (args.overwrite or args.plan):
         raise SacflowError(f"{args.check_table} exists: give --overwrite to replace it, or "
                            f"another --check-table")
     summary = read_summary(args.against)
     fingerprint = source_fingerprint()
     rows: list[dict[str, Any]] = []
     for name in args.cases:
-        base, _, sequences, overrides = case_setup(args, name)
+        base, shipped, sequences, overrides = case_setup(args, name)
         runner = LevelRunner(STUDY_CASES[name], overrides, args.cache, fingerprint)
+        if args.plan:  # the check's levels, cached or to run; nothing runs
+            print_plan(runner, base, shipped, {seq_name: [sequences[seq_name].at_step(
+                base, args.check)] for seq_name in args.sequences})
+            continue
         for seq_name in args.sequences:
             level = sequences[seq_name].at_step(base, args.check)
             record = runner.record(level)
             if record is not None:
                 rows.extend(check_rows(name, seq_name, args.check, level, record, summary))
+    if args.plan:
+        return 0
     if not rows:
         raise SacflowError(f"nothing to compare: {args.against} has no monotone sequence of "
                            f"these cases and sequences, or every run failed")

@@ -359,6 +359,7 @@ REFINED_TABLES = {
     "pressgrid": ("convergence-press-grid-summary.csv", "convergence-press-grid.csv"),
     "presslat4": ("convergence-press-lateral4-summary.csv", "convergence-press-lateral4.csv"),
     "presssteps4": ("convergence-press-steps4-summary.csv", "convergence-press-steps4.csv"),
+    "presssub": ("convergence-press-subcells-summary.csv", "convergence-press-subcells.csv"),
     "presswin": ("convergence-press-window-summary.csv", "convergence-press-window.csv"),
     "win650": ("convergence-window-650-summary.csv", "convergence-window-650.csv"),
     "winbase": ("convergence-window-base-summary.csv", "convergence-window-base.csv"),

@@ -1,7 +1,7 @@
 """The press's contact edge inside its cell: what its position alone does to the results.
 
 ``python pipelines/press_edge_position.py [--runs NX:W ...] [--layers N]
-[--increments LOAD UNLOAD] [--table CSV [--overwrite]]``
+[--increments LOAD UNLOAD] [--subcells S] [--table CSV [--overwrite]]``
 
 At 600 N the indentation press (``pipelines/dent-from-indentation-press.toml``) is fully plastic:
 its contact pressure stays near 8 GPa up to the contact edge and drops to zero within one
@@ -17,6 +17,9 @@ edge's position in its cell, and the convergence study's quantities
 (:func:`sacflow.studies.convergence.measure`). It runs the press as its tables were recorded,
 with the residual stress's surface traction beyond the box left out (the press ships with it
 removed since; ``WITHOUT_FAR_TRACTION``), so that the window changes only the edge's cell.
+``--subcells S`` solves the contact on S × S sub-cells of each surface cell
+(``solver.contact_subcells``, :mod:`sacflow.solver.subcell_contact`): the same windows then
+show what is left once the edge is resolved to a sub-cell.
 
 The contact radius is read on the cell row nearest the axis: the outermost loaded cell carries
 a share of the pressure of the cell inside it, and the edge is put that share of a cell beyond
@@ -41,6 +44,7 @@ from sacflow.solver.state import State
 from sacflow.studies.convergence import (
     STUDY_CASES,
     WITHOUT_FAR_TRACTION,
+    WITHOUT_SUBCELLS,
     base_case,
     measure,
     shipped_discretisation,
@@ -77,14 +81,20 @@ def contact_edge(state: State, x1: np.ndarray, x2: np.ndarray) -> float:
     return float(r[edge] - 0.5 * h + share * h)
 
 
-def case_for(nx: int, layers: int, increments: tuple[int, int], half_width: float) -> Case:
-    """Return the press on nx² cells and ``layers`` over the study's box, in one window."""
+def case_for(nx: int, layers: int, increments: tuple[int, int], half_width: float,
+             subcells: int = 1) -> Case:
+    """Return the press on nx² cells and ``layers`` over the study's box, in one window.
+
+    ``subcells`` > 1 solves its contact on that many sub-cells per cell and axis.
+    """
     depth = shipped_discretisation(base_case(CASE)).depth
     return base_case(CASE, [f"grid.nx={nx}", f"grid.ny={nx}", f"grid.nz={layers}",
                             f"grid.depth={depth!r}", f"grid.half_width={half_width!r}",
                             f"load_path.0.increments={increments[0]}",
                             f"load_path.1.increments={increments[1]}",
-                            f"output.volume_every={sum(increments)}", WITHOUT_FAR_TRACTION])
+                            f"output.volume_every={sum(increments)}", WITHOUT_FAR_TRACTION,
+                            WITHOUT_SUBCELLS if subcells == 1 else
+                            f"solver.contact_subcells={subcells}"])
 
 
 def run_window(case: Case) -> dict[str, float]:
@@ -97,7 +107,8 @@ def run_window(case: Case) -> dict[str, float]:
     x1, x2 = sim.coords.x1, sim.coords.x2
     h = float(x1[1] - x1[0])
     radius = contact_edge(max(states, key=lambda s: s.load), x1, x2)
-    return {"nx": nx, "layers": case.grid.nz, "half_width": case.grid.half_width, "cell": h,
+    return {"nx": nx, "layers": case.grid.nz, "half_width": case.grid.half_width,
+            "subcells": case.solver.contact_subcells, "cell": h,
             "contact_radius": radius, "edge_in_cell": radius / h % 1.0,
             "seconds": time.perf_counter() - start, **quantities}
 
@@ -120,6 +131,8 @@ def parse(argv: list[str]) -> argparse.Namespace:
     parser.add_argument("--layers", type=int, default=64, help="layers over the box (64)")
     parser.add_argument("--increments", type=int, nargs=2, default=(20, 6),
                         metavar=("LOAD", "UNLOAD"), help="load and unload increments (20 6)")
+    parser.add_argument("--subcells", type=int, default=1, metavar="S",
+                        help="contact sub-cells per surface cell and axis (1: the cells)")
     add_table_arguments(parser)
     return parser.parse_args(argv)
 
@@ -129,7 +142,7 @@ def main(argv: list[str]) -> None:
     args = parse(argv)
     refuse_existing_table(args.table, args.overwrite)
     try:  # every run's case first: a grid or window the press cannot run stops before any
-        cases = [case_for(nx, args.layers, tuple(args.increments), width)
+        cases = [case_for(nx, args.layers, tuple(args.increments), width, args.subcells)
                  for nx, width in args.runs]
     except SacflowError as exc:
         raise SystemExit(f"error: {exc}") from None

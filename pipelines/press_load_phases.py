@@ -4,8 +4,10 @@
 [--table CSV [--overwrite]]``
 
 The press (``pipelines/dent-from-indentation-press.toml``, as it ships: cell-averaged stresses,
-the traction beyond the box removed) is loaded in two halves, to P/2 and then to P, each in equal
-increments. Four schedules on NX² × NZ cells over the study's box depth:
+the traction beyond the box removed; its contact on the surface cells, as the table was
+recorded before the press moved to sub-cells, ``WITHOUT_SUBCELLS``) is loaded in two halves,
+to P/2 and then to P, each in equal increments. Four schedules on NX² × NZ cells over the
+study's box depth:
 
 * ``uniform``: N/2 + N/2 increments (the same steps as N equal ones);
 * ``early``: the first half refined K times, K·N/2 + N/2;
@@ -34,7 +36,13 @@ from typing import Any
 from sacflow.config.case import Case
 from sacflow.config.solver_inputs import simulation_for
 from sacflow.errors import SacflowError
-from sacflow.studies.convergence import STUDY_CASES, base_case, measure, shipped_discretisation
+from sacflow.studies.convergence import (
+    STUDY_CASES,
+    WITHOUT_SUBCELLS,
+    base_case,
+    measure,
+    shipped_discretisation,
+)
 from sacflow.studies.convergence_table import (
     add_table_arguments,
     refuse_existing_table,
@@ -68,7 +76,7 @@ def case_for(schedule: str, nx: int, nz: int, increments: int, factor: int) -> C
         raise SacflowError(f"--factor: a refinement of 2 or more is needed; got {factor}")
     depth = shipped_discretisation(base_case(CASE)).depth
     press = base_case(CASE, [f"grid.nx={nx}", f"grid.ny={nx}", f"grid.nz={nz}",
-                             f"grid.depth={depth!r}"])
+                             f"grid.depth={depth!r}", WITHOUT_SUBCELLS])
     early, late = SCHEDULES[schedule]
     half = increments // 2
     halves = (half * factor if early else half, half * factor if late else half)

@@ -6,7 +6,9 @@ SAMPLING is ``solver.stress_sampling`` (1: stresses at the cell centres; 2 or mo
 means, as the press ships since issue #32). The increments are the 10 + 3 of the study's base
 (those of ``notes/press-near-surface.md``; an override ``load_path.0.increments=20`` changes
 them), and the surface traction beyond the box is left out as it was there (an override
-``solver.traction_beyond_box=true`` removes it, as the press ships since). Prints the run
+``solver.traction_beyond_box=true`` removes it, as the press ships since), and so is the
+contact on the surface cells (``solver.contact_subcells=2``: on sub-cells, as it ships
+since). Prints the run
 time, print depth, largest εp, peak pressure, the residual σ33 and εp on the axis (first 20
 layers) and the first layer's σ33 (axis, minimum) and writes the final fields to
 DIR/run_<tag>.npz (default DIR: runs/press-near-surface); a file already there is kept, and
@@ -28,6 +30,7 @@ from sacflow.solver.simulation import Simulation
 from sacflow.studies.convergence import (
     STUDY_CASES,
     WITHOUT_FAR_TRACTION,
+    WITHOUT_SUBCELLS,
     base_case,
     base_increments_overrides,
     shipped_discretisation,
@@ -56,7 +59,7 @@ def main(argv: list[str]) -> None:
         case = base_case(CASE, [f"grid.nx={nx}", f"grid.ny={nx}", f"grid.nz={nz}",
                                 f"grid.depth={depth!r}", f"solver.stress_sampling={sampling}",
                                 *base_increments_overrides(CASE), WITHOUT_FAR_TRACTION,
-                                *extra])
+                                WITHOUT_SUBCELLS, *extra])
     except InputError as exc:
         sys.exit(str(exc))
     start = time.time()

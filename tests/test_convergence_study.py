@@ -399,6 +399,13 @@ def test_quick_check_and_advice(tmp_path, capsys):
     assert pipeline.main([*common, "--table", str(tmp_path / "levels.csv")]) == 0
     runs = len(list(cache.glob("*.json")))
     checked = tmp_path / "check.csv"
+    capsys.readouterr()
+    # --plan with --check lists the check's level and runs nothing
+    assert pipeline.main([*common, "--check", "1/3", "--check-table", str(checked),
+                          "--plan"]) == 0
+    plan = capsys.readouterr().out
+    assert "32² ×  12 layers" in plan and plan.count("to run") == 1
+    assert len(list(cache.glob("*.json"))) == runs and not checked.exists()
     assert pipeline.main([*common, "--check", "1/3", "--check-table", str(checked)]) == 0
     rows = read(checked)
     assert rows and tuple(rows[0]) == CHECK_COLUMNS
@@ -498,3 +505,16 @@ def test_the_edge_script_runs_its_windows_and_keeps_a_table(tmp_path, capsys):
                      str(tmp_path / "other.csv")])
     assert table.read_bytes() == before and not (tmp_path / "other.csv").exists()
     assert "edge at" in capsys.readouterr().out
+    assert [int(r["subcells"]) for r in rows] == [1, 1]
+
+
+def test_the_edge_script_solves_the_contact_on_sub_cells_when_asked(tmp_path):
+    module = load_edge_script()
+    table = tmp_path / "edge.csv"
+    module.main(["--runs", "26:3.0", "--layers", "8", "--increments", "2", "1",
+                 "--subcells", "2", "--table", str(table)])
+    (row,) = csv.DictReader(table.open())
+    assert int(row["subcells"]) == 2
+    with pytest.raises(SystemExit, match="solver.contact_subcells"):
+        module.main(["--runs", "26:3.0", "--subcells", "5", "--table", str(tmp_path / "x.csv")])
+    assert not (tmp_path / "x.csv").exists()

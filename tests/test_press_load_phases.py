@@ -48,7 +48,9 @@ def test_each_schedule_refines_the_half_it_names(schedule, halves):
     shipped = module.base_case(module.CASE)
     assert peak == shipped.load_path[0].to
     assert unload.increments == shipped.load_path[-1].increments and unload.to == 0.0
-    assert case.solver == shipped.solver  # as the press ships (cell mean, far traction)
+    # as the press ships (cell mean, far traction), its contact on the cells as recorded
+    assert case.solver == shipped.solver.model_copy(update={"contact_subcells": 1})
+    assert shipped.solver.contact_subcells == 2
 
 
 @pytest.mark.parametrize(("argv", "message"),

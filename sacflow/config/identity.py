@@ -68,7 +68,8 @@ DEFAULTS_LEFT_OUT: dict[str, Any] = {"output.volume_precision": "float64",
                                      "solver.inclusion_max_iterations": 1000,
                                      "solver.stress_sampling": 1,
                                      "solver.surface_correction": "centre",
-                                     "solver.traction_beyond_box": False}
+                                     "solver.traction_beyond_box": False,
+                                     "solver.contact_subcells": 1}
 #: Keys of an inhomogeneity added after runs were stored, left out of the identity when absent
 #: (its own hardening: without it, or ``law = "elastic"``, the inhomogeneity stays elastic).
 OPTIONAL_INHOMOGENEITY_KEYS: tuple[str, ...] = ("hardening",)

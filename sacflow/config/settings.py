@@ -28,6 +28,7 @@ from sacflow.solver.state import (
     SURFACE_FIELDS,
     VOLUME_FIELDS,
 )
+from sacflow.solver.subcell_contact import MAX_CONTACT_SUBCELLS
 
 __all__ = [
     "FRICTION_FIELDS",
@@ -151,6 +152,16 @@ class SolverOptions(Model):
         "traction over a footprint three times as wide, computed by a coarse operator of "
         "super-cells and interpolated to the cells (docs/convergence.md); an iteration "
         "costs more (docs/performance.md)",
+    )
+    contact_subcells: Annotated[int, Field(ge=1, le=MAX_CONTACT_SUBCELLS)] = Field(
+        1,
+        description="sub-cells per surface cell along each axis on which the contact is "
+        "solved: 1 (default, as the seed) solves it on the surface cells, so that the "
+        "contact's edge jumps from cell to cell; 2 or more resolve the edge to a sub-cell "
+        "(the gap at the sub-cells' centres, the residual displacement interpolated to them, "
+        "each cell loaded by the mean of its sub-cells' pressure), which removes the sawtooth "
+        "that the edge's place inside its cell puts on the print depth and the near-surface "
+        "stresses (docs/convergence.md); the contact's arrays and FFTs grow with its square",
     )
 
     @model_validator(mode="after")

@@ -124,6 +124,7 @@ def solver_inputs(case: Case, surface: MeasuredSurface | None = None,
         stress_sampling=opts.stress_sampling,
         surface_correction=opts.surface_correction,
         traction_beyond_box=opts.traction_beyond_box,
+        contact_subcells=opts.contact_subcells,
     )
     output = OutputPlan(case.output.volume_every, tuple(case.output.every_step))
     conditions = InitialConditions(
@@ -267,7 +268,8 @@ def estimate_case_memory(case: Case) -> MemoryEstimate:
     volume state), whatever its hardening.
     """
     return estimate_memory(case_body_grid(case), _eigenstrain_operator(case),
-                           _anderson_depth(case), _far_traction(case))
+                           _anderson_depth(case), _far_traction(case),
+                           case.solver.contact_subcells)
 
 
 def check_case_memory(case: Case, available: int | None = None) -> MemoryEstimate:
@@ -279,7 +281,7 @@ def check_case_memory(case: Case, available: int | None = None) -> MemoryEstimat
         When the estimate exceeds the available memory (default: available now).
     """
     return check_memory(case_body_grid(case), _eigenstrain_operator(case), _anderson_depth(case),
-                        available, _far_traction(case))
+                        available, _far_traction(case), case.solver.contact_subcells)
 
 
 def _far_traction(case: Case) -> tuple[float, float] | None:

@@ -37,7 +37,11 @@ _REFRESH_EVERY = 32
 
 @dataclass(frozen=True)
 class ContactResult:
-    """Converged elastic contact state (arrays on the contact grid, SI units)."""
+    """Converged elastic contact state (arrays on the contact grid, SI units).
+
+    ``area`` is the contact area [m²] when the solution knows it more finely than its grid's
+    loaded cells (:class:`~sacflow.solver.subcell_contact.SubcellContact`), else None.
+    """
 
     pressure: np.ndarray
     displacement: np.ndarray
@@ -46,6 +50,7 @@ class ContactResult:
     load: float
     iterations: int
     error: float
+    area: float | None = None
 
 
 def solve_contact(

@@ -44,6 +44,7 @@ from sacflow.solver.inclusion import EquivalentInclusion
 from sacflow.solver.inputs import Material, SolverSettings
 from sacflow.solver.layout import StepPlan
 from sacflow.solver.operators import Operators
+from sacflow.solver.subcell_contact import SubcellContact
 from sacflow.solver.vector_passes import summed
 
 __all__ = ["Increment", "IncrementSolver"]
@@ -127,14 +128,19 @@ class IncrementSolver:
         Initial residual stress of the layers (nz, 6) [Pa], or None.
     inclusion : EquivalentInclusion or None
         The body's elastic inhomogeneities, or None.
+    subcells : SubcellContact or None
+        The contact on sub-cells of the surface cells (``solver.contact_subcells`` > 1), or
+        None to solve it on the surface cells.
     """
 
     def __init__(self, operators: Operators, geometry: LoadGeometry, material: Material,
                  settings: SolverSettings, depth: np.ndarray,
                  initial_stress: np.ndarray | None,
-                 inclusion: EquivalentInclusion | None = None) -> None:
+                 inclusion: EquivalentInclusion | None = None,
+                 subcells: SubcellContact | None = None) -> None:
         self.operators = operators
         self.geometry = geometry
+        self.subcells = subcells
         self.inclusion = inclusion if inclusion is not None and inclusion.active else None
         # the fixed point runs for a plastic body, or for the equivalent eigenstrain
         self.plastic = material.plastic or self.inclusion is not None
@@ -168,6 +174,8 @@ class IncrementSolver:
                                                 *np.array(plan.position)[:, None])[0]
             history.first_contact_offset = float(min(geometry.min(), at_load))
         geometry = geometry - history.first_contact_offset
+        fine = None if self.subcells is None else (
+            self.subcells.window_gap(plan.position, sl) - history.first_contact_offset)
         contact_iterations = 0
         fixed = fixed_gap_displacement
         fixed_result: ContactResult | None = None
@@ -178,7 +186,7 @@ class IncrementSolver:
                 if fixed_result is not None:  # the gap does not change within the increment
                     return fixed_result
                 u_r = fixed
-            result = self._contact(geometry + u_r[sl], plan.load, step, history.pressure)
+            result = self._contact(geometry, fine, u_r, sl, plan.load, step, history.pressure)
             contact_iterations += result.iterations
             history.pressure = result.pressure
             if fixed is not None:
@@ -249,11 +257,17 @@ class IncrementSolver:
         stress += body.residual_stress
         return stress
 
-    def _contact(self, h: np.ndarray, load: float, step: int,
+    def _contact(self, geometry: np.ndarray, fine: np.ndarray | None, u_r: np.ndarray,
+                 sl: tuple[slice, slice], load: float, step: int,
                  pressure: np.ndarray | None) -> ContactResult:
+        """Solve the contact on the window's gap: ``geometry`` (the sub-cells' ``fine``) + u_r."""
         opts, cell = self.settings, self.operators.cell
+        if self.subcells is not None and fine is not None:
+            return self.subcells.solve(
+                fine + self.subcells.displacement(u_r, sl), load, pressure,
+                tol=opts.contact_tolerance, max_iter=opts.contact_max_iterations, step=step)
         return solve_contact(
-            h, self.operators.compliance, cell[0] * cell[1], load=load,
+            geometry + u_r[sl], self.operators.compliance, cell[0] * cell[1], load=load,
             initial_pressure=pressure, tol=opts.contact_tolerance,
             max_iter=opts.contact_max_iterations, step=step,
         )

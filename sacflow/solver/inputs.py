@@ -189,7 +189,9 @@ class SolverSettings:
     sampled at the surface cells' centres (``"centre"``) or with its variation within the cells
     of the first layers' cuboids integrated (``"quadrature"``,
     :mod:`sacflow.kernels.traction_stencil`); ``traction_beyond_box`` whether it also removes
-    the traction beyond the box's footprint (:mod:`sacflow.kernels.far_traction`).
+    the traction beyond the box's footprint (:mod:`sacflow.kernels.far_traction`);
+    ``contact_subcells`` the sub-cells per surface cell and axis on which the contact is solved
+    (1: the surface cells; more: :mod:`sacflow.solver.subcell_contact`).
     """
 
     contact_tolerance: float = 1e-10
@@ -208,6 +210,7 @@ class SolverSettings:
     stress_sampling: int = 1
     surface_correction: Literal["centre", "quadrature"] = "centre"
     traction_beyond_box: bool = False
+    contact_subcells: int = 1
 
 
 @dataclass(frozen=True)

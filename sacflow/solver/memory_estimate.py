@@ -163,16 +163,21 @@ def _real_fft_bytes(batch: int, n1: int, n2: int) -> int:
     return batch * (FLOAT * n1 * n2 + COMPLEX * n1 * (n2 // 2 + 1))
 
 
-def _contact(grid: BodyGrid) -> MemoryItem:
-    """Compliance spectra and buffers on the contact window, the contact solver's arrays."""
+def _contact(grid: BodyGrid, subcells: int = 1) -> MemoryItem:
+    """Compliance spectra and buffers on the contact window, the contact solver's arrays.
+
+    With ``subcells`` > 1 the contact is solved on that many sub-cells per cell and axis
+    (:mod:`sacflow.solver.subcell_contact`), and its grid is that many times finer.
+    """
     from sacflow.kernels.convolution import padded_length
 
-    nx, ny = grid.window
+    nx, ny = (n * subcells for n in grid.window)
     p1, p2 = padded_length(nx, nx), padded_length(ny, ny)
     spectra = COMPLEX * p1 * (p2 // 2 + 1)
     nbytes = spectra + 2 * _real_fft_bytes(1, p1, p2) + CONTACT_ARRAYS * FLOAT * nx * ny
     return MemoryItem("contact operator", nbytes,
-                      f"compliance spectra and contact arrays on the {nx} × {ny} window")
+                      f"compliance spectra and contact arrays on the {nx} × {ny} "
+                      + ("window" if subcells == 1 else "sub-cells of the window"))
 
 
 def _pressure_stress(grid: BodyGrid) -> tuple[MemoryItem, MemoryItem]:
@@ -280,7 +285,8 @@ def _states(grid: BodyGrid, plastic: bool) -> MemoryItem:
 
 
 def estimate_memory(grid: BodyGrid, plastic: bool, anderson_depth: int,
-                    far_traction: tuple[float, float] | None = None) -> MemoryEstimate:
+                    far_traction: tuple[float, float] | None = None,
+                    contact_subcells: int = 1) -> MemoryEstimate:
     """Estimated peak resident memory of a run [bytes], by item.
 
     The peak is that of the heavier of two phases: the set-up (operators built, with the
@@ -299,6 +305,8 @@ def estimate_memory(grid: BodyGrid, plastic: bool, anderson_depth: int,
         The surface cells' sizes (d1, d2) [m] when the eigenstrain operator removes the
         traction beyond the box (``solver.traction_beyond_box``: a second, coarse operator
         whose margins depend on them); None without it.
+    contact_subcells : int
+        Sub-cells per surface cell and axis of the contact (``solver.contact_subcells``).
 
     Returns
     -------
@@ -311,7 +319,7 @@ def estimate_memory(grid: BodyGrid, plastic: bool, anderson_depth: int,
         "libraries", LIBRARY_BYTES["plastic" if plastic else "elastic"],
         "the interpreter, numpy, scipy, pyfftw, xarray, netCDF4" + (", numba" if plastic else ""),
     )
-    contact = _contact(grid)
+    contact = _contact(grid, contact_subcells)
     stress_op, stress_setup = _pressure_stress(grid)
     base = [libraries, contact, stress_op]
     phases = [[*base, stress_setup]]  # set-up of the pressure-stress operator
@@ -337,12 +345,13 @@ def estimate_memory(grid: BodyGrid, plastic: bool, anderson_depth: int,
 
 def check_memory(grid: BodyGrid, plastic: bool, anderson_depth: int,
                  available: int | None = None,
-                 far_traction: tuple[float, float] | None = None) -> MemoryEstimate:
+                 far_traction: tuple[float, float] | None = None,
+                 contact_subcells: int = 1) -> MemoryEstimate:
     """Estimate the memory of a run and refuse it when the machine does not have it.
 
     Parameters
     ----------
-    grid, plastic, anderson_depth, far_traction
+    grid, plastic, anderson_depth, far_traction, contact_subcells
         As for :func:`estimate_memory`.
     available : int, optional
         Bytes available; default :func:`available_memory` now.
@@ -358,7 +367,7 @@ def check_memory(grid: BodyGrid, plastic: bool, anderson_depth: int,
         When the estimate exceeds the available memory; the message gives both, the largest
         items and the fix (fewer cells, a shorter rolled track).
     """
-    estimate = estimate_memory(grid, plastic, anderson_depth, far_traction)
+    estimate = estimate_memory(grid, plastic, anderson_depth, far_traction, contact_subcells)
     available = available_memory() if available is None else int(available)
     if estimate.total > available:
         raise GridTooLargeError(_too_large(estimate, available))

@@ -34,6 +34,7 @@ from sacflow.solver.layout import StepPlan, body_grid, halfway, layer_centres
 from sacflow.solver.operators import Operators
 from sacflow.solver.state import GridCoords, State
 from sacflow.solver.step_state import StateBuilder
+from sacflow.solver.subcell_contact import subcell_contact
 
 __all__ = ["MAX_CUTBACKS", "Simulation"]
 
@@ -100,9 +101,9 @@ class Simulation:
                 inputs.settings.surface_correction == "quadrature",
                 inputs.settings.traction_beyond_box)
         initial = inputs.initial
-        self.increments = IncrementSolver(self.operators, self.geometry, material,
-                                          inputs.settings, self.coords.x3, initial.stress,
-                                          self.inclusion)
+        self.increments = IncrementSolver(
+            self.operators, self.geometry, material, inputs.settings, self.coords.x3,
+            initial.stress, self.inclusion, subcell_contact(self.geometry, inputs))
         self.states = StateBuilder(inputs, self.coords, self.increments)
         self.body = self._initial_body()
         self.history = ContactHistory()

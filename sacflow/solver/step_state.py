@@ -155,7 +155,8 @@ class StateBuilder:
             approach=float(result.approach),
             load_x1=float(plan.position[0]),
             load_x2=float(plan.position[1]),
-            contact_area=float(np.count_nonzero(result.pressure > 0) * cell_area),
+            contact_area=float(np.count_nonzero(result.pressure > 0) * cell_area
+                               if result.area is None else result.area),
             max_pressure=float(result.pressure.max(initial=0.0)),
             contact_iterations=int(inc.contact_iterations),
             plasticity_iterations=int(inc.plasticity_iterations),

@@ -41,6 +41,7 @@ __all__ = [
     "STUDY_CASES",
     "UNITS",
     "WITHOUT_FAR_TRACTION",
+    "WITHOUT_SUBCELLS",
     "ConvergenceError",
     "Discretisation",
     "Refinement",
@@ -115,6 +116,9 @@ PERFECT_SAMPLING = "solver.stress_sampling=2"
 #: residual stress's surface traction beyond the box (``solver.traction_beyond_box``, issue
 #: #32): the scripts that rebuild such records pass it.
 WITHOUT_FAR_TRACTION = "solver.traction_beyond_box=false"
+#: The override that reproduces a record of the press made before it solved its contact on
+#: sub-cells (``solver.contact_subcells = 2`` in its config, issue #32).
+WITHOUT_SUBCELLS = "solver.contact_subcells=1"
 STUDY_CASES: dict[str, StudyCase] = {
     case.name: case for case in (
         StudyCase("nanoindentation-190mN", ROOT / "configs" / "nanoindentation-190mN.toml",
