@@ -360,6 +360,7 @@ REFINED_TABLES = {
     "presslat4": ("convergence-press-lateral4-summary.csv", "convergence-press-lateral4.csv"),
     "presssteps4": ("convergence-press-steps4-summary.csv", "convergence-press-steps4.csv"),
     "presssub": ("convergence-press-subcells-summary.csv", "convergence-press-subcells.csv"),
+    "presssub4": ("convergence-press-subcells4-summary.csv", "convergence-press-subcells4.csv"),
     "presswin": ("convergence-press-window-summary.csv", "convergence-press-window.csv"),
     "win650": ("convergence-window-650-summary.csv", "convergence-window-650.csv"),
     "winbase": ("convergence-window-base-summary.csv", "convergence-window-base.csv"),
@@ -375,10 +376,12 @@ AGAINST_LIMITS = {"presswinfar": "presswin", "win650far": "win650", "winbasefar"
 #: Level tables whose levels are also compared with the `together` limits of
 #: ``data/convergence-shipped-summary.csv`` (``{tag}_..._level{L}_together_error``).
 AGAINST_TOGETHER = ("incgrid",)
-#: Checks of ``data/convergence-shipped-summary.csv``'s `together` models at h = 1/3 and 1/5
-#: (``pipelines/convergence.py --check``): tag -> table.
+#: Checks of ``data/convergence-shipped-summary.csv``'s `together` models at h = 1/3 and 1/5,
+#: and of the press's on sub-cells at h = 1/3 (``pipelines/convergence.py --check``): tag ->
+#: table.
 SHIPPED_CHECKS = {"shipcheck": "convergence-shipped-check.csv",
-                  "shipcheck5": "convergence-shipped-check-5.csv"}
+                  "shipcheck5": "convergence-shipped-check-5.csv",
+                  "presssubcheck": "convergence-press-subcells-check-3.csv"}
 #: The quantities of docs/convergence.md's table of the Swift cases at their shipped grids.
 SWIFT_TABLE_STEMS = ("approach", "print_depth_refined", "max_eqps_refined",
                      "max_eqps_refined_depth", "s11_min_refined", "s11_05a_refined",
