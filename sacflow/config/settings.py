@@ -21,6 +21,7 @@ from sacflow.config.base import (
     field_error,
 )
 from sacflow.kernels.cell_average import MAX_SAMPLING
+from sacflow.solver.inputs import MAX_CONTACT_SUBCELLS
 from sacflow.solver.state import (
     INCLUSION_FIELDS,
     INCLUSION_SCALARS,
@@ -28,7 +29,6 @@ from sacflow.solver.state import (
     SURFACE_FIELDS,
     VOLUME_FIELDS,
 )
-from sacflow.solver.subcell_contact import MAX_CONTACT_SUBCELLS
 
 __all__ = [
     "FRICTION_FIELDS",

@@ -22,6 +22,7 @@ from sacflow.solver.layout import StepPlan
 from sacflow.solver.state import MeasuredSurface
 
 __all__ = [
+    "MAX_CONTACT_SUBCELLS",
     "ContactSpec",
     "Dent",
     "GridSpec",
@@ -211,6 +212,12 @@ class SolverSettings:
     surface_correction: Literal["centre", "quadrature"] = "centre"
     traction_beyond_box: bool = False
     contact_subcells: int = 1
+
+
+#: Largest number of contact sub-cells per surface cell along an axis
+#: (``solver.contact_subcells``, :mod:`sacflow.solver.subcell_contact`): the contact's arrays
+#: grow with its square.
+MAX_CONTACT_SUBCELLS = 4
 
 
 @dataclass(frozen=True)

@@ -29,13 +29,9 @@ from sacflow.kernels.convolution import Convolution
 from sacflow.kernels.surface import rectangle_displacement
 from sacflow.mechanics.contact import ContactResult, solve_contact
 from sacflow.solver.geometry import LoadGeometry
-from sacflow.solver.inputs import SolverInputs
+from sacflow.solver.inputs import MAX_CONTACT_SUBCELLS, SolverInputs
 
-__all__ = ["MAX_CONTACT_SUBCELLS", "SubcellContact", "subcell_contact"]
-
-#: Largest number of contact sub-cells per body cell along an axis (``solver.contact_subcells``):
-#: the contact's arrays grow with its square.
-MAX_CONTACT_SUBCELLS = 4
+__all__ = ["SubcellContact", "subcell_contact"]
 
 #: Degree of the splines that carry the residual surface displacement to the sub-cells.
 SPLINE_DEGREE = 3
