@@ -23,7 +23,6 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
-from scipy.interpolate import RectBivariateSpline
 
 from sacflow.kernels.convolution import Convolution
 from sacflow.kernels.surface import rectangle_displacement
@@ -91,6 +90,8 @@ class SubcellContact:
         Bicubic splines through the body's cell centres (the body's whole surface, so that the
         window's border has neighbours where the body has them), evaluated at the sub-cells.
         """
+        from scipy.interpolate import RectBivariateSpline  # a run without sub-cells needs none
+
         x1, x2 = self.points(window)
         if not surface.any():
             return np.zeros((x1.size, x2.size))
