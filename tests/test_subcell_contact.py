@@ -155,3 +155,27 @@ def test_a_plastic_run_on_sub_cells_balances_the_load():
     assert top.contact_area < loaded
     peak = {s: max(run[1], key=lambda st: st.load).approach for s, run in runs.items()}
     assert peak[2] == pytest.approx(peak[1], rel=0.01)
+
+
+def test_the_splines_pass_through_the_window_and_its_margin_only():
+    """On a body four times as long as its window (a rolled track), the splines through the
+    window and 8 cells beyond it give what splines through the whole surface give, to the
+    decay of a cubic spline's nodes (2 − √3 per cell), for a field that is not a polynomial."""
+    from scipy.interpolate import RectBivariateSpline
+
+    from sacflow.solver.subcell_contact import SPLINE_MARGIN
+
+    h = 1e-5
+    x1 = (np.arange(64) - 31.5) * h
+    x2 = (np.arange(16) - 7.5) * h
+    geo = SimpleNamespace(cell=(h, h), window=(16, 16), coords=GridCoords(x1, x2, np.zeros(1)))
+    surface = 1e-6 * np.sin(x1[:, None] / (3 * h)) * np.cos(x2[None, :] / (4 * h))
+    contact = SubcellContact(geo, E_STAR, 2)
+    window = (slice(24, 40), slice(0, 16))
+    p1, p2 = contact.points(window)
+    whole = RectBivariateSpline(x1, x2, surface, bbox=[x1[0] - h / 2, x1[-1] + h / 2,
+                                                       x2[0] - h / 2, x2[-1] + h / 2])(p1, p2)
+    near = contact.displacement(surface, window)
+    assert SPLINE_MARGIN < 24  # the margin ends inside the body: the test compares something
+    assert_allclose(near, whole, rtol=0, atol=3e-5 * 1e-6)  # (2 − √3)^8 of the amplitude
+    assert not np.array_equal(near, whole)
