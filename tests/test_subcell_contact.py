@@ -179,3 +179,73 @@ def test_the_splines_pass_through_the_window_and_its_margin_only():
     assert SPLINE_MARGIN < 24  # the margin ends inside the body: the test compares something
     assert_allclose(near, whole, rtol=0, atol=3e-5 * 1e-6)  # (2 − √3)^8 of the amplitude
     assert not np.array_equal(near, whole)
+
+
+@pytest.mark.parametrize(("subcells", "sampling"), [(2, 1), (3, 1), (2, 2)])
+def test_the_body_is_loaded_by_the_sub_cells_pressure_not_its_cell_means(subcells, sampling):
+    """The stress of a sub-cell pressure (its cell means' stress plus that of its variation
+    within each cell) is the sum of Love's rectangles of the sub-cells, evaluated directly at
+    the body cells (and averaged over their ``sampling³`` points), on a window inside the
+    body; a pressure uniform over each cell adds nothing to its cell means' stress."""
+    from sacflow.kernels.cell_average import sub_points
+    from sacflow.kernels.surface import rectangle_stress
+    from sacflow.solver.operators import Operators
+
+    h1, h2, nz, dz, nu = 1e-5, 1.3e-5, 4, 0.6e-5, 0.3
+    body, window = (7, 6), (slice(2, 5), slice(1, 4))
+    ops = Operators((3, 3), body, (h1, h2), nz, dz, 2e11, nu, 1e11, None, False, 1,
+                    stress_sampling=sampling, contact_subcells=subcells)
+    rng = np.random.default_rng(5)
+    fine = rng.uniform(0.0, 2e9, (3 * subcells, 3 * subcells))
+    means = fine.reshape(3, subcells, 3, subcells).mean(axis=(1, 3))
+    total = ops.pressure_stress(means, window) + ops.subcell_pressure_stress(fine, window)
+
+    x1, x2 = (np.arange(body[0]) - 3) * h1, (np.arange(body[1]) - 2.5) * h2
+    z = (np.arange(nz) + 0.5) * dz
+    centres = (np.arange(subcells) + 0.5) / subcells - 0.5
+    s1 = (x1[window[0]][:, None] + centres[None, :] * h1).ravel()
+    s2 = (x2[window[1]][:, None] + centres[None, :] * h2).ravel()
+    direct = np.zeros((*body, nz, 6))
+    points = list(sub_points(sampling, (h1, h2, dz)))
+    for q1, q2, q3 in points:
+        for k in range(nz):
+            d1 = x1[:, None, None, None] + q1 - s1[None, None, :, None]
+            d2 = x2[None, :, None, None] + q2 - s2[None, None, None, :]
+            unit = rectangle_stress(d1, d2, z[k] + q3, h1 / (2 * subcells),
+                                    h2 / (2 * subcells), nu)
+            direct[:, :, k] += np.einsum("ijabc,ab->ijc", unit, fine) / len(points)
+    assert_allclose(total, direct, rtol=0, atol=1e-10 * np.abs(direct).max())
+
+    uniform = np.repeat(np.repeat(means, subcells, axis=0), subcells, axis=1)
+    assert np.abs(ops.subcell_pressure_stress(uniform, window)).max() < 1e-12 * 2e9
+
+
+def test_the_sub_cells_pressure_gives_the_hertz_stress_below_the_first_layers():
+    """Hertz's contact on 2 × 2 sub-cells, its edge at five places within a cell: from a cell
+    deep down, the stress of the sub-cells' pressure (the pressure as the contact solved it)
+    is more than three times nearer Huber's closed form than that of its cell means (the
+    pressure smeared over each cell, which moves the load at the contact's edge by up to half
+    a cell). Above a cell's depth both carry the sub-cells' own steps of the pressure."""
+    from sacflow.mechanics.hertz import hertz_subsurface_stress
+    from sacflow.solver.operators import Operators
+
+    nu, nz = 0.3, 12
+    for cells_per_radius in np.linspace(6.0, 7.0, 5):
+        geo = sphere_geometry(cells_per_radius)
+        (h, _), (n, _) = geo.cell, geo.window
+        contact = SubcellContact(geo, E_STAR, 2)
+        window = (slice(0, n), slice(0, n))
+        result = contact.solve(contact.window_gap((0.0, 0.0), window), W, None, tol=1e-12,
+                               max_iter=4000, step=0)
+        assert result.subcell_pressure is not None
+        ops = Operators((n, n), (n, n), (h, h), nz, h / 4, 2e11, nu, E_STAR, None, False, 1,
+                        contact_subcells=2)
+        smeared = ops.pressure_stress(result.pressure, window)
+        solved = smeared + ops.subcell_pressure_stress(result.subcell_pressure, window)
+        x, z = geo.coords.x1, (np.arange(nz) + 0.5) * h / 4
+        hertz = hertz_subsurface_stress(x[:, None, None], x[None, :, None], z[None, None, :],
+                                        HERTZ.a, HERTZ.p0, nu)
+        deep = z >= h
+        errors = [float(np.abs(s - hertz)[:, :, deep].max()) / HERTZ.p0
+                  for s in (smeared, solved)]
+        assert errors[1] < errors[0] / 3, (cells_per_radius, errors)

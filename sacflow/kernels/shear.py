@@ -77,8 +77,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from sacflow.kernels.load_geometry import CORNERS, point_force, rectangle_points, safe_div
 
-__all__ = ["cerruti_stress", "rectangle_shear_stress", "surface_load_stress_coefficients",
-           "traction_stress"]
+__all__ = ["cerruti_stress", "rectangle_shear_stress", "subcell_load_stress_coefficients",
+           "surface_load_stress_coefficients", "traction_stress"]
 
 #: Component order after exchanging x1 and x2: (11, 22, 33, 12, 13, 23) -> (22, 11, 33, 12, 23,
 #: 13).
@@ -281,5 +281,50 @@ def surface_load_stress_coefficients(
                           sampling, (dx1, dx2, thickness))
             out[k] = np.moveaxis(s, -1, 0)
         return out.reshape(6 * depths.size, 1, *out.shape[2:])
+
+    return coefficients
+
+
+def subcell_load_stress_coefficients(
+    cell: tuple[float, float], subcells: int, depths: NDArray[np.float64], nu: float,
+    traction: tuple[float, float] | None = None, sampling: int = 1, thickness: float = 0.0,
+) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
+    """Influence coefficients of a unit pressure on each sub-cell of a cell on the body's stress.
+
+    As :func:`surface_load_stress_coefficients`, for a cell cut into ``subcells`` ×
+    ``subcells`` sub-cells: ``coefficients(d1, d2)`` returns ``(6 · len(depths), s², *shape)``,
+    input channel ``o1 · s + o2`` the stress at the centre of the cell ``(d1, d2)`` cells away
+    (or its mean over the ``sampling³`` points) of a unit pressure on sub-cell ``(o1, o2)``:
+    Love's rectangle of the sub-cell's size (:func:`sacflow.kernels.surface.rectangle_stress`,
+    point by point: the sub-cells' offsets are not whole cells) and, with a ``traction``, its
+    shear traction's stresses. The sum over the sub-cells is the cell's own coefficient.
+    """
+    from sacflow.kernels.cell_average import cell_mean
+    from sacflow.kernels.surface import rectangle_stress
+
+    dx1, dx2 = cell
+    half1, half2 = dx1 / (2 * subcells), dx2 / (2 * subcells)
+    centres = (np.arange(subcells) + 0.5) / subcells - 0.5  # in cells, from the cell's centre
+    depths = np.asarray(depths, dtype=float)
+
+    def at_point(x1: np.ndarray, x2: np.ndarray, depth: float) -> np.ndarray:
+        s = rectangle_stress(x1, x2, depth, half1, half2, nu)
+        if traction is not None:
+            s = s + traction_stress(x1, x2, depth, half1, half2, nu, traction)
+        return s
+
+    def coefficients(d1: np.ndarray, d2: np.ndarray) -> np.ndarray:
+        shape = np.broadcast_shapes(d1.shape, d2.shape)
+        out = np.empty((depths.size, 6, subcells * subcells, *shape))
+        for k, depth in enumerate(depths):
+            for o1, c1 in enumerate(centres):
+                for o2, c2 in enumerate(centres):
+                    x1, x2 = (d1 - c1) * dx1, (d2 - c2) * dx2
+                    s = cell_mean(lambda p1, p2, p3, x1=x1, x2=x2, depth=float(depth):
+                                  at_point(x1 + p1, x2 + p2, depth + p3),
+                                  sampling, (dx1, dx2, thickness))
+                    out[k, :, o1 * subcells + o2] = np.moveaxis(
+                        np.broadcast_to(s, (*shape, 6)), -1, 0)
+        return out.reshape(6 * depths.size, subcells * subcells, *shape)
 
     return coefficients

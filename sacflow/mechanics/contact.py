@@ -40,7 +40,8 @@ class ContactResult:
     """Converged elastic contact state (arrays on the contact grid, SI units).
 
     ``area`` is the contact area [m²] when the solution knows it more finely than its grid's
-    loaded cells (:class:`~sacflow.solver.subcell_contact.SubcellContact`), else None.
+    loaded cells (:class:`~sacflow.solver.subcell_contact.SubcellContact`), else None;
+    ``subcell_pressure`` that solution's pressure on the sub-cells [Pa], else None.
     """
 
     pressure: np.ndarray
@@ -51,6 +52,7 @@ class ContactResult:
     iterations: int
     error: float
     area: float | None = None
+    subcell_pressure: np.ndarray | None = None
 
 
 def solve_contact(

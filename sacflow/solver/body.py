@@ -57,6 +57,7 @@ class ContactHistory:
     contact [m] (the origin of the approach; None before it), and ``converged`` the contact
     pressure of the last converged increment with the body-grid slices of its window (None
     when that increment was unloaded): the load of the stress the next increment starts from,
+    ``converged_subcells`` its pressure on the contact's sub-cells (None without them), and
     ``converged_stress`` that whole stress when the solver kept it.
     """
 
@@ -64,9 +65,12 @@ class ContactHistory:
     first_contact_offset: float | None = None
     converged: tuple[np.ndarray, tuple[slice, slice]] | None = None
     converged_stress: np.ndarray | None = None
+    converged_subcells: np.ndarray | None = None
 
     def remember(self, pressure: np.ndarray, window: tuple[slice, slice], load: float,
-                 stress: np.ndarray | None = None) -> None:
+                 stress: np.ndarray | None = None,
+                 subcell_pressure: np.ndarray | None = None) -> None:
         """Keep the converged ``pressure`` at ``window`` (None when unloaded) and ``stress``."""
         self.converged = (pressure, window) if load > 0.0 and pressure.any() else None
+        self.converged_subcells = subcell_pressure if self.converged is not None else None
         self.converged_stress = stress

@@ -154,9 +154,17 @@ class IncrementSolver:
             stress += self.initial_stress
         return stress
 
-    def load_stress(self, pressure: np.ndarray, window: tuple[slice, slice]) -> np.ndarray:
-        """Stress that does not come from this run's plastic strain: pressure + initial [Pa]."""
-        return self.with_initial_stress(self.operators.pressure_stress(pressure, window))
+    def load_stress(self, pressure: np.ndarray, window: tuple[slice, slice],
+                    subcell_pressure: np.ndarray | None = None) -> np.ndarray:
+        """Stress that does not come from this run's plastic strain: pressure + initial [Pa].
+
+        With the contact on sub-cells, ``subcell_pressure`` adds the stress of the pressure's
+        variation within each cell (:meth:`Operators.subcell_pressure_stress`).
+        """
+        stress = self.operators.pressure_stress(pressure, window)
+        if subcell_pressure is not None:
+            stress += self.operators.subcell_pressure_stress(subcell_pressure, window)
+        return self.with_initial_stress(stress)
 
     def solve(self, step: int, plan: StepPlan, body: BodyState, history: ContactHistory,
               fixed_gap_displacement: np.ndarray | None) -> Increment:
@@ -253,7 +261,8 @@ class IncrementSolver:
                 return None
             return self.with_initial_stress(body.residual_stress.copy())
         pressure, window = history.converged
-        stress = np.ascontiguousarray(self.load_stress(pressure, window))  # gathered per point
+        stress = np.ascontiguousarray(  # gathered per point
+            self.load_stress(pressure, window, history.converged_subcells))
         stress += body.residual_stress
         return stress
 
@@ -321,12 +330,14 @@ class IncrementSolver:
                 pressure = np.zeros(ops.body_shape)
                 pressure[sl] = result.pressure
                 total = ops.eigenstrain.stress(traction, pressure)
+                if result.subcell_pressure is not None:
+                    total += ops.subcell_pressure_stress(result.subcell_pressure, sl)
                 # the residual stress alone, if this is the last evaluation: made at the end
                 last.stress, last.pressure = total, pressure
                 last.total = total if self.initial_stress is None else total + self.initial_stress
                 return last.total, apps  # ``total`` stays without the initial stress
             last.stress, last.pressure = stress, None
-            last.total = self.load_stress(result.pressure, sl) + stress
+            last.total = self.load_stress(result.pressure, sl, result.subcell_pressure) + stress
             return last.total, apps
 
         def converged(res: float) -> bool:
@@ -349,6 +360,8 @@ class IncrementSolver:
         assert stress is not None and u is not None and result is not None
         if last.pressure is not None:  # fused: take the contact pressure's stress out again
             stress = stress - ops.body_pressure_stress(last.pressure)
+            if result.subcell_pressure is not None:
+                stress -= ops.subcell_pressure_stress(result.subcell_pressure, sl)
         return result, update, (stress, u), coupling, last.total
 
     def nested(self, solve: ContactSolve, sl: tuple[slice, slice], step: int,
@@ -373,7 +386,7 @@ class IncrementSolver:
         change = np.inf
         for _ in range(opts.coupling_max_iterations):
             result = solve(u_used)
-            sig_pr = self.load_stress(result.pressure, sl)
+            sig_pr = self.load_stress(result.pressure, sl, result.subcell_pressure)
             tol = max(inner_tol, opts.plasticity_tolerance)
 
             def sigma(x: np.ndarray, sig_pr: np.ndarray = sig_pr) -> tuple[np.ndarray, int]:

@@ -180,18 +180,24 @@ def _contact(grid: BodyGrid, subcells: int = 1) -> MemoryItem:
                       + ("window" if subcells == 1 else "sub-cells of the window"))
 
 
-def _pressure_stress(grid: BodyGrid) -> tuple[MemoryItem, MemoryItem]:
-    """Size the pressure → stress operator (spectra, buffers) and the coefficients of its set-up."""
+def _pressure_stress(grid: BodyGrid, inputs: int = 1, name: str = "pressure-stress"
+                     ) -> tuple[MemoryItem, MemoryItem]:
+    """Size the pressure → stress operator (spectra, buffers) and the coefficients of its set-up.
+
+    ``inputs`` pressures per cell: 1 for the cells' pressure, s² for the sub-cells' of a
+    contact on s × s sub-cells
+    (:meth:`~sacflow.solver.operators.Operators.subcell_pressure_stress`).
+    """
     from sacflow.kernels.convolution import padded_length
 
     n1, n2 = grid.body
     p1, p2 = padded_length(n1, n1), padded_length(n2, n2)
-    outputs = COMPONENTS * grid.nz
+    outputs = COMPONENTS * grid.nz * inputs
     spectra = outputs * COMPLEX * p1 * (p2 // 2 + 1)
-    buffers = _real_fft_bytes(1, p1, p2) + 2 * _real_fft_bytes(COMPONENTS, p1, p2)
-    operator = MemoryItem("pressure-stress operator", spectra + buffers,
+    buffers = _real_fft_bytes(inputs, p1, p2) + 2 * _real_fft_bytes(COMPONENTS, p1, p2)
+    operator = MemoryItem(f"{name} operator", spectra + buffers,
                           f"{outputs} kernel spectra on the {p1} × {p2} padded body grid")
-    setup = MemoryItem("pressure-stress set-up", outputs * FLOAT * p1 * p2,
+    setup = MemoryItem(f"{name} set-up", outputs * FLOAT * p1 * p2,
                        "its kernel coefficients, while they are transformed")
     return operator, setup
 
@@ -323,6 +329,11 @@ def estimate_memory(grid: BodyGrid, plastic: bool, anderson_depth: int,
     stress_op, stress_setup = _pressure_stress(grid)
     base = [libraries, contact, stress_op]
     phases = [[*base, stress_setup]]  # set-up of the pressure-stress operator
+    if contact_subcells > 1:  # and of the sub-cells' pressure's
+        subcell_op, subcell_setup = _pressure_stress(grid, contact_subcells**2,
+                                                     "sub-cell pressure-stress")
+        phases.append([*base, subcell_op, subcell_setup])
+        base.append(subcell_op)
     running = [*base, _states(grid, plastic)]
     contingent = None
     if plastic:

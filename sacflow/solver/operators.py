@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from sacflow.kernels.convolution import Convolution
-from sacflow.kernels.shear import surface_load_stress_coefficients
+from sacflow.kernels.shear import subcell_load_stress_coefficients, surface_load_stress_coefficients
 from sacflow.kernels.surface import rectangle_displacement
 from sacflow.solver.layout import layer_centres
 
@@ -65,13 +65,18 @@ class Operators:
     traction_beyond_box : bool
         Whether it also removes the surface traction beyond the box's footprint
         (:mod:`sacflow.kernels.far_traction`).
+    contact_subcells : int
+        Sub-cells per surface cell along each axis of a contact solved on sub-cells
+        (:mod:`sacflow.solver.subcell_contact`), 1 without: with more, the stress of the
+        pressure's variation within each cell (:meth:`subcell_pressure_stress`).
     """
 
     def __init__(self, window: tuple[int, int], body_shape: tuple[int, int],
                  cell: tuple[float, float], nz: int, dz: float, E: float, nu: float,
                  e_star: float, traction: tuple[float, float] | None, plastic: bool,
                  threads: int | None, stress_sampling: int = 1,
-                 traction_quadrature: bool = False, traction_beyond_box: bool = False) -> None:
+                 traction_quadrature: bool = False, traction_beyond_box: bool = False,
+                 contact_subcells: int = 1) -> None:
         self.body_shape = body_shape
         self.stress_sampling = stress_sampling
         self.cell = cell
@@ -95,6 +100,17 @@ class Operators:
             block=COMPONENTS,  # one depth layer (six components) per inverse transform
             cache=("contact_stress", self.contact_stress_parameters()),
         )
+        self.subcells = contact_subcells
+        self.subcell_stress_op: Convolution | None = None
+        if contact_subcells > 1:
+            # the sub-cells' pressures -> stress at the body cells: s² inputs, one transform each
+            self.subcell_stress_op = Convolution(
+                subcell_load_stress_coefficients(cell, contact_subcells, z, nu, traction,
+                                                 stress_sampling, dz),
+                body_shape, body_shape, threads=threads, block=COMPONENTS,
+                cache=("contact_stress", {**self.contact_stress_parameters(),
+                                          "contact_subcells": contact_subcells}),
+            )
         self.eigen: HalfSpaceEigenstrain | None = None
         if plastic:
             from sacflow.kernels.eigenstrain import HalfSpaceEigenstrain
@@ -140,6 +156,27 @@ class Operators:
         """Stress [Pa] (n1, n2, nz, 6) of a pressure given on the whole body grid."""
         out: np.ndarray = self.pressure_stress_op(pressure[None])  # (6 nz, n1, n2)
         out = out.reshape(self.nz, COMPONENTS, *self.body_shape)
+        return np.moveaxis(out, (0, 1), (2, 3))
+
+    def subcell_pressure_stress(self, subcell_pressure: np.ndarray,
+                                window: tuple[slice, slice]) -> np.ndarray:
+        """Stress [Pa] (n1, n2, nz, 6) of the sub-cell pressure's variation within its cells.
+
+        ``subcell_pressure`` (w1 s, w2 s) on the sub-cells of the window's cells at ``window``.
+        Its cell means load the body through :meth:`pressure_stress`; this adds the stress of
+        each sub-cell's deviation from its cell's mean (Love's rectangles of the sub-cells, the
+        sum over a cell's sub-cells being the cell's own): together, the stress of the pressure
+        as the contact solved it, not smeared over each cell.
+        """
+        op, s = self.subcell_stress_op, self.subcells
+        if op is None:
+            raise RuntimeError("the operators were built without contact sub-cells")
+        w1, w2 = subcell_pressure.shape[0] // s, subcell_pressure.shape[1] // s
+        fine = subcell_pressure.reshape(w1, s, w2, s)
+        deviation = fine - fine.mean(axis=(1, 3), keepdims=True)
+        embedded = np.zeros((s * s, *self.body_shape))
+        embedded[(slice(None), *window)] = deviation.transpose(1, 3, 0, 2).reshape(s * s, w1, w2)
+        out: np.ndarray = op(embedded).reshape(self.nz, COMPONENTS, *self.body_shape)
         return np.moveaxis(out, (0, 1), (2, 3))
 
     def residual_stress(self, plastic_strain: np.ndarray) -> np.ndarray:

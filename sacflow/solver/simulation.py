@@ -99,7 +99,7 @@ class Simulation:
                 material.nu, inputs.contact.e_star, inputs.contact.traction, eigenstrains,
                 inputs.settings.fft_threads, inputs.settings.stress_sampling,
                 inputs.settings.surface_correction == "quadrature",
-                inputs.settings.traction_beyond_box)
+                inputs.settings.traction_beyond_box, inputs.settings.contact_subcells)
         initial = inputs.initial
         self.increments = IncrementSolver(
             self.operators, self.geometry, material, inputs.settings, self.coords.x3,
@@ -304,7 +304,8 @@ class Simulation:
         if plan.load <= 0.0:
             self.history.pressure = None
         inc = self.solve_increment(step, plan)
-        self.history.remember(inc.contact.pressure, inc.window, plan.load, inc.stress)
+        self.history.remember(inc.contact.pressure, inc.window, plan.load, inc.stress,
+                              inc.contact.subcell_pressure)
         body = self.body
         plastic = inc.update is not None and inc.update[0].any()
         if plastic:

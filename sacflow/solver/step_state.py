@@ -54,7 +54,8 @@ class StateBuilder:
         wanted = set(every if names is None else names)
         out: dict[str, np.ndarray] = {}
         if wanted & {"stress", "von_mises"}:
-            stress = self.increments.load_stress(result.pressure, sl) + body.residual_stress
+            stress = (self.increments.load_stress(result.pressure, sl, result.subcell_pressure)
+                      + body.residual_stress)
             out["stress"] = stress
             out["von_mises"] = von_mises(stress)
         if "residual_stress" in wanted:
