@@ -249,3 +249,25 @@ def test_the_sub_cells_pressure_gives_the_hertz_stress_below_the_first_layers():
         errors = [float(np.abs(s - hertz)[:, :, deep].max()) / HERTZ.p0
                   for s in (smeared, solved)]
         assert errors[1] < errors[0] / 3, (cells_per_radius, errors)
+
+
+def test_a_run_on_sub_cells_resumes_where_it_stopped():
+    """Stored steps keep the cells' pressure only: resumed after a loaded step, the run solves
+    that step's contact on the sub-cells again, so that the next increment starts from the
+    stress of the sub-cells' pressure, and goes on as the uninterrupted run did (to the
+    solver's tolerances)."""
+    config = CONFIGS / "nanoindentation-650mN.toml"
+    case = load_case(config, ["grid.nx=24", "grid.ny=24", "grid.nz=10",
+                              "load_path.0.increments=4", "load_path.1.increments=2",
+                              "solver.contact_subcells=2"])
+    states = list(simulation_for(case).run())
+    resumed = simulation_for(case)
+    resumed.restore(1, states[1].restart, states[1].first_contact_offset)
+    assert resumed.history.converged_subcells is not None
+    again = list(resumed.run(start=2))
+    for s, r in zip(states[2:], again, strict=True):
+        for name, field in (("pressure", "surface"), ("equivalent_plastic_strain", "volume")):
+            ours, theirs = getattr(r, field).get(name), getattr(s, field).get(name)
+            if ours is None or theirs is None:
+                continue
+            assert_allclose(ours, theirs, rtol=0, atol=1e-6 * np.abs(theirs).max())

@@ -266,6 +266,27 @@ class IncrementSolver:
         stress += body.residual_stress
         return stress
 
+    def restored_subcell_pressure(self, step: int, plan: StepPlan, body: BodyState,
+                                  history: ContactHistory) -> np.ndarray | None:
+        """Return the sub-cells' pressure of a restored loaded step (None without sub-cells).
+
+        Stored steps keep the cells' pressure only. The step's contact is solved on the
+        sub-cells again, on the restored residual displacement and warm-started from the stored
+        pressure, so that the next increment starts from the stress of the sub-cells' pressure
+        (:meth:`start_stress`) as in an uninterrupted run.
+        """
+        if self.subcells is None or history.converged is None:
+            return None
+        pressure, sl = history.converged
+        offset = history.first_contact_offset or 0.0
+        fine = self.subcells.window_gap(plan.position, sl) - offset
+        opts = self.settings
+        result = self.subcells.solve(fine + self.subcells.displacement(body.residual_displacement,
+                                                                      sl),
+                                     plan.load, pressure, tol=opts.contact_tolerance,
+                                     max_iter=opts.contact_max_iterations, step=step)
+        return result.subcell_pressure
+
     def _contact(self, geometry: np.ndarray, fine: np.ndarray | None, u_r: np.ndarray,
                  sl: tuple[slice, slice], load: float, step: int,
                  pressure: np.ndarray | None) -> ContactResult:

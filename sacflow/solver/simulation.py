@@ -200,7 +200,8 @@ class Simulation:
         grid and ``first_contact_offset`` the origin of the approach, as :meth:`run` put them
         in that step's :class:`~sacflow.solver.state.State`. The residual stress is recomputed
         from the plastic strain (one operator application); the contact pressure of the step
-        becomes the warm start of the next contact solve, as in an uninterrupted run.
+        becomes the warm start of the next contact solve, as in an uninterrupted run (on
+        sub-cells, whose pressure is not stored, the step's contact is solved on them again).
 
         Raises
         ------
@@ -239,6 +240,8 @@ class Simulation:
         self.history.pressure = window.copy() if plan.load > 0.0 and window.any() else None
         self.history.remember(window.copy(), slices, plan.load)
         self.history.first_contact_offset = first_contact_offset
+        self.history.converged_subcells = self.increments.restored_subcell_pressure(
+            step, plan, body, self.history)
 
     def solve_increment(self, step: int, plan: StepPlan) -> Increment:
         """Solve the increment to ``plan`` from the body's state (not committed).
