@@ -159,9 +159,12 @@ class SolverOptions(Model):
         "solved: 1 (default, as the seed) solves it on the surface cells, so that the "
         "contact's edge jumps from cell to cell; 2 or more resolve the edge to a sub-cell "
         "(the gap at the sub-cells' centres, the residual displacement interpolated to them, "
-        "each cell loaded by the mean of its sub-cells' pressure), which removes the sawtooth "
-        "that the edge's place inside its cell puts on the print depth and the near-surface "
-        "stresses (docs/convergence.md); the contact's arrays and FFTs grow with its square",
+        "each cell's pressure the mean of its sub-cells', the body's stress that of the "
+        "sub-cells' pressure itself), which removes the sawtooth that the edge's place inside "
+        "its cell puts on the print depth and the near-surface stresses, and the error of a "
+        "pressure smeared over the cells at the contact's edge (docs/convergence.md); the "
+        "contact's arrays and FFTs grow with its square, and the pressure-stress operator "
+        "gains its square of kernels (`sacflow validate` counts them in its memory estimate)",
     )
 
     @model_validator(mode="after")
