@@ -156,15 +156,9 @@ class IncrementSolver:
 
     def load_stress(self, pressure: np.ndarray, window: tuple[slice, slice],
                     subcell_pressure: np.ndarray | None = None) -> np.ndarray:
-        """Stress that does not come from this run's plastic strain: pressure + initial [Pa].
-
-        With the contact on sub-cells, ``subcell_pressure`` adds the stress of the pressure's
-        variation within each cell (:meth:`Operators.subcell_pressure_stress`).
-        """
-        stress = self.operators.pressure_stress(pressure, window)
-        if subcell_pressure is not None:
-            stress += self.operators.subcell_pressure_stress(subcell_pressure, window)
-        return self.with_initial_stress(stress)
+        """Stress not from this run's plastic strain: pressure (sub-cells' too) + initial [Pa]."""
+        return self.with_initial_stress(
+            self.operators.pressure_stress(pressure, window, subcell_pressure))
 
     def solve(self, step: int, plan: StepPlan, body: BodyState, history: ContactHistory,
               fixed_gap_displacement: np.ndarray | None) -> Increment:
@@ -260,32 +254,10 @@ class IncrementSolver:
             if self.initial_stress is None and not body.residual_stress.any():
                 return None
             return self.with_initial_stress(body.residual_stress.copy())
-        pressure, window = history.converged
-        stress = np.ascontiguousarray(  # gathered per point
-            self.load_stress(pressure, window, history.converged_subcells))
+        (pressure, window), fine = history.converged, history.converged_subcells
+        stress = np.ascontiguousarray(self.load_stress(pressure, window, fine))  # per point
         stress += body.residual_stress
         return stress
-
-    def restored_subcell_pressure(self, step: int, plan: StepPlan, body: BodyState,
-                                  history: ContactHistory) -> np.ndarray | None:
-        """Return the sub-cells' pressure of a restored loaded step (None without sub-cells).
-
-        Stored steps keep the cells' pressure only. The step's contact is solved on the
-        sub-cells again, on the restored residual displacement and warm-started from the stored
-        pressure, so that the next increment starts from the stress of the sub-cells' pressure
-        (:meth:`start_stress`) as in an uninterrupted run.
-        """
-        if self.subcells is None or history.converged is None:
-            return None
-        pressure, sl = history.converged
-        offset = history.first_contact_offset or 0.0
-        fine = self.subcells.window_gap(plan.position, sl) - offset
-        opts = self.settings
-        result = self.subcells.solve(fine + self.subcells.displacement(body.residual_displacement,
-                                                                      sl),
-                                     plan.load, pressure, tol=opts.contact_tolerance,
-                                     max_iter=opts.contact_max_iterations, step=step)
-        return result.subcell_pressure
 
     def _contact(self, geometry: np.ndarray, fine: np.ndarray | None, u_r: np.ndarray,
                  sl: tuple[slice, slice], load: float, step: int,
@@ -350,9 +322,7 @@ class IncrementSolver:
             if apps and fused:
                 pressure = np.zeros(ops.body_shape)
                 pressure[sl] = result.pressure
-                total = ops.eigenstrain.stress(traction, pressure)
-                if result.subcell_pressure is not None:
-                    total += ops.subcell_pressure_stress(result.subcell_pressure, sl)
+                total = ops.fused_stress(traction, pressure, result.subcell_pressure, sl)
                 # the residual stress alone, if this is the last evaluation: made at the end
                 last.stress, last.pressure = total, pressure
                 last.total = total if self.initial_stress is None else total + self.initial_stress
@@ -380,9 +350,7 @@ class IncrementSolver:
         stress, u, result = last.stress, last.displacement, last.contact
         assert stress is not None and u is not None and result is not None
         if last.pressure is not None:  # fused: take the contact pressure's stress out again
-            stress = stress - ops.body_pressure_stress(last.pressure)
-            if result.subcell_pressure is not None:
-                stress -= ops.subcell_pressure_stress(result.subcell_pressure, sl)
+            stress = ops.without_pressure_stress(stress, last.pressure, result.subcell_pressure, sl)
         return result, update, (stress, u), coupling, last.total
 
     def nested(self, solve: ContactSolve, sl: tuple[slice, slice], step: int,

@@ -146,17 +146,52 @@ class Operators:
             raise RuntimeError("an elastic body has no eigenstrain operator")
         return self.eigen
 
-    def pressure_stress(self, pressure: np.ndarray, window: tuple[slice, slice]) -> np.ndarray:
-        """Stress [Pa] on the body grid, (n1, n2, nz, 6), of the window pressure at ``window``."""
+    def pressure_stress(self, pressure: np.ndarray, window: tuple[slice, slice],
+                        subcell_pressure: np.ndarray | None = None) -> np.ndarray:
+        """Stress [Pa] on the body grid, (n1, n2, nz, 6), of the window pressure at ``window``.
+
+        With the contact on sub-cells, ``subcell_pressure`` (their pressure, whose cell means
+        are ``pressure``) adds the stress of its variation within each cell
+        (:meth:`subcell_pressure_stress`).
+        """
         embedded = np.zeros(self.body_shape)
         embedded[window] = pressure
-        return self.body_pressure_stress(embedded)
+        return self.add_subcell_stress(self.body_pressure_stress(embedded), subcell_pressure,
+                                       window)
+
+    def add_subcell_stress(self, stress: np.ndarray, subcell_pressure: np.ndarray | None,
+                           window: tuple[slice, slice], sign: float = 1.0) -> np.ndarray:
+        """Add ``sign`` × :meth:`subcell_pressure_stress` to ``stress`` in place, if any.
+
+        Returns ``stress``; unchanged without a sub-cell pressure (a run on the cells).
+        """
+        if subcell_pressure is not None:
+            stress += sign * self.subcell_pressure_stress(subcell_pressure, window)
+        return stress
 
     def body_pressure_stress(self, pressure: np.ndarray) -> np.ndarray:
         """Stress [Pa] (n1, n2, nz, 6) of a pressure given on the whole body grid."""
         out: np.ndarray = self.pressure_stress_op(pressure[None])  # (6 nz, n1, n2)
         out = out.reshape(self.nz, COMPONENTS, *self.body_shape)
         return np.moveaxis(out, (0, 1), (2, 3))
+
+    def fused_stress(self, traction: np.ndarray, pressure: np.ndarray,
+                     subcell_pressure: np.ndarray | None,
+                     window: tuple[slice, slice]) -> np.ndarray:
+        """Residual stress and contact stress in the eigenstrain operator's transforms [Pa].
+
+        :meth:`HalfSpaceEigenstrain.stress` of the surface ``traction`` with the body-grid
+        ``pressure``, plus the sub-cells' share (:meth:`add_subcell_stress`) if any.
+        """
+        return self.add_subcell_stress(self.eigenstrain.stress(traction, pressure),
+                                       subcell_pressure, window)
+
+    def without_pressure_stress(self, stress: np.ndarray, pressure: np.ndarray,
+                                subcell_pressure: np.ndarray | None,
+                                window: tuple[slice, slice]) -> np.ndarray:
+        """``stress`` without the stress of the body-grid ``pressure`` (and its sub-cells')."""
+        return self.add_subcell_stress(stress - self.body_pressure_stress(pressure),
+                                       subcell_pressure, window, sign=-1.0)
 
     def subcell_pressure_stress(self, subcell_pressure: np.ndarray,
                                 window: tuple[slice, slice]) -> np.ndarray:

@@ -209,13 +209,7 @@ class Simulation:
             When the arrays do not fit this run's grid (the stored run is of another grid).
         """
         tensor = (*self.body_shape, self.nz, 6)
-        shapes = {
-            "plastic_strain": tensor,
-            "equivalent_plastic_strain": tensor[:3],
-            "residual_displacement": self.body_shape,
-            "pressure": self.body_shape,
-        }
-        arrays = {name: _stored(restart, name, shape) for name, shape in shapes.items()}
+        arrays = _restart_arrays(restart, tensor)
         body = self.body
         body.plastic_strain = arrays["plastic_strain"]
         body.equivalent_plastic_strain = arrays["equivalent_plastic_strain"]
@@ -240,8 +234,9 @@ class Simulation:
         self.history.pressure = window.copy() if plan.load > 0.0 and window.any() else None
         self.history.remember(window.copy(), slices, plan.load)
         self.history.first_contact_offset = first_contact_offset
-        self.history.converged_subcells = self.increments.restored_subcell_pressure(
-            step, plan, body, self.history)
+        if (subcells := self.increments.subcells) is not None:  # their pressure is not stored
+            self.history.converged_subcells = subcells.restored_pressure(
+                plan, self.history, body.residual_displacement, self.increments.settings, step)
 
     def solve_increment(self, step: int, plan: StepPlan) -> Increment:
         """Solve the increment to ``plan`` from the body's state (not committed).
@@ -353,6 +348,22 @@ class Simulation:
                 f"step {step}: plastic strain reached the side of the grid; "
                 "increase grid.half_width", RuntimeWarning, stacklevel=2,
             )
+
+
+def _restart_arrays(restart: Mapping[str, np.ndarray], tensor: tuple[int, ...]
+                    ) -> dict[str, np.ndarray]:
+    """Return copies of the stored state's arrays, checked against the run's ``tensor`` shape.
+
+    The plastic strain (n1, n2, nz, 6), the equivalent plastic strain (n1, n2, nz), and the
+    residual displacement and contact pressure on the body's surface (n1, n2).
+    """
+    shapes = {
+        "plastic_strain": tensor,
+        "equivalent_plastic_strain": tensor[:3],
+        "residual_displacement": tensor[:2],
+        "pressure": tensor[:2],
+    }
+    return {name: _stored(restart, name, shape) for name, shape in shapes.items()}
 
 
 def _stored(restart: Mapping[str, np.ndarray], name: str,

@@ -32,8 +32,10 @@ import numpy as np
 from sacflow.kernels.convolution import Convolution
 from sacflow.kernels.surface import rectangle_displacement
 from sacflow.mechanics.contact import ContactResult, solve_contact
+from sacflow.solver.body import ContactHistory
 from sacflow.solver.geometry import LoadGeometry
-from sacflow.solver.inputs import MAX_CONTACT_SUBCELLS, SolverInputs
+from sacflow.solver.inputs import MAX_CONTACT_SUBCELLS, SolverInputs, SolverSettings
+from sacflow.solver.layout import StepPlan
 
 __all__ = ["SubcellContact", "subcell_contact"]
 
@@ -157,6 +159,26 @@ class SubcellContact:
                          subcell_pressure=fine.pressure)
         self._last = (result.pressure, fine.pressure)
         return result
+
+
+    def restored_pressure(self, plan: StepPlan, history: ContactHistory,
+                          residual_displacement: np.ndarray, settings: SolverSettings,
+                          step: int) -> np.ndarray | None:
+        """Return the sub-cells' pressure of a restored step (None when it was unloaded).
+
+        Stored steps keep the cells' pressure only (``history.converged``). The step's contact
+        is solved on the sub-cells again, on the restored residual displacement and
+        warm-started from that pressure, so that the next increment starts from the stress of
+        the sub-cells' pressure as in an uninterrupted run.
+        """
+        if history.converged is None:
+            return None
+        pressure, window = history.converged
+        gap = (self.window_gap(plan.position, window) - (history.first_contact_offset or 0.0)
+               + self.displacement(residual_displacement, window))
+        result = self.solve(gap, plan.load, pressure, tol=settings.contact_tolerance,
+                            max_iter=settings.contact_max_iterations, step=step)
+        return result.subcell_pressure
 
 
 def subcell_contact(geometry: LoadGeometry, inputs: SolverInputs) -> SubcellContact | None:
