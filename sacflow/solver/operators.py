@@ -160,13 +160,18 @@ class Operators:
                                        window)
 
     def add_subcell_stress(self, stress: np.ndarray, subcell_pressure: np.ndarray | None,
-                           window: tuple[slice, slice], sign: float = 1.0) -> np.ndarray:
-        """Add ``sign`` × :meth:`subcell_pressure_stress` to ``stress`` in place, if any.
+                           window: tuple[slice, slice], subtract: bool = False) -> np.ndarray:
+        """Add (or ``subtract``) :meth:`subcell_pressure_stress` to ``stress`` in place, if any.
 
         Returns ``stress``; unchanged without a sub-cell pressure (a run on the cells).
         """
-        if subcell_pressure is not None:
-            stress += sign * self.subcell_pressure_stress(subcell_pressure, window)
+        if subcell_pressure is None:
+            return stress
+        correction = self.subcell_pressure_stress(subcell_pressure, window)
+        if subtract:
+            stress -= correction
+        else:
+            stress += correction
         return stress
 
     def body_pressure_stress(self, pressure: np.ndarray) -> np.ndarray:
@@ -191,7 +196,7 @@ class Operators:
                                 window: tuple[slice, slice]) -> np.ndarray:
         """``stress`` without the stress of the body-grid ``pressure`` (and its sub-cells')."""
         return self.add_subcell_stress(stress - self.body_pressure_stress(pressure),
-                                       subcell_pressure, window, sign=-1.0)
+                                       subcell_pressure, window, subtract=True)
 
     def subcell_pressure_stress(self, subcell_pressure: np.ndarray,
                                 window: tuple[slice, slice]) -> np.ndarray:
