@@ -3,8 +3,8 @@
 * :class:`~sacflow.kernels.subcell_displacement.SubcellResidualDisplacement` equals Chiu's
   cuboids summed directly at the sub-cells' centres, and a strain uniform over 2 × 2 cells gives
   the displacement of the one cuboid they tile (an independent closed form);
-* the oscillation measure of :func:`~sacflow.studies.pressure_profile.sawtooth` is a smooth
-  profile's h² curvature and an alternating one's amplitude;
+* the oscillation measure of :func:`~sacflow.studies.pressure_profile.sawtooth` is an
+  alternating profile's amplitude, and (nearly) zero on a smooth one or the edge's fall;
 * the script runs a tiny press and keeps its tables.
 """
 
@@ -62,16 +62,18 @@ def test_a_strain_uniform_over_two_by_two_cells_is_one_cuboid():
     assert np.abs(fine - whole).max() < 1e-12 * np.abs(whole).max()
 
 
-def test_the_oscillation_measure_is_the_curvature_or_the_alternation():
+def test_the_oscillation_measure_is_the_alternations_amplitude():
+    """An alternation A gives A; a smooth curvature and the edge's fall give (nearly) none."""
     h = 1e-6
-    r = (np.arange(40) + 0.5) * h
-    smooth = 8e9 - 1e20 * r**2
-    assert sawtooth(r, smooth, 40 * h) == pytest.approx(1e20 * h**2, rel=1e-9)
-    alternating = 8e9 + 5e7 * (-1.0) ** np.arange(40)
-    assert sawtooth(r, alternating, 40 * h) == pytest.approx(1e8, rel=1e-12)
-    inside_only = alternating.copy()
-    inside_only[r > 0.5 * 40 * h] = 0.0  # the contact's edge: its fall is not counted
-    assert sawtooth(r, inside_only, 20 * h) == pytest.approx(1e8, rel=1e-12)
+    r = (np.arange(41) + 0.5) * h
+    alternating = 8e9 + 5e7 * (-1.0) ** np.arange(41)
+    assert sawtooth(r, alternating, 41 * h) == pytest.approx(5e7, rel=1e-12)
+    smooth = 8e9 - 1e18 * r**2  # second difference 1e6 Pa at every point
+    assert sawtooth(r, smooth, 41 * h) < 1e6 / 30
+    edge = smooth.copy()
+    edge[r > 0.8 * 41 * h] = 0.0  # the contact's edge inside the counted part: one dip
+    assert sawtooth(r, edge, 41 * h) < 8e9 / 30
+    assert sawtooth(r, alternating + smooth, 41 * h) == pytest.approx(5e7, rel=0.05)
 
 
 def test_the_row_is_the_one_nearest_the_axis_ahead_of_it():

@@ -11,8 +11,8 @@ converges slowly (order 1.36 in the convergence study's ``together`` sequence):
   reaches the sub-cells through bicubic splines from the cells' centres
   (:mod:`sacflow.solver.subcell_contact`). The alternative is the cells' plastic strain's own
   displacement at the sub-cells (:class:`~sacflow.kernels.subcell_displacement.
-  SubcellResidualDisplacement`). The step's contact is solved again on each, and the intra-cell
-  oscillation of the sub-cells' pressure measured (:func:`sawtooth`).
+  SubcellResidualDisplacement`). The step's contact is solved again on each, and the
+  alternation of the sub-cells' pressure from sub-cell to sub-cell measured (:func:`sawtooth`).
 """
 
 from __future__ import annotations
@@ -77,14 +77,18 @@ def row_profile(values: np.ndarray, x1: np.ndarray, x2: np.ndarray,
 
 
 def sawtooth(r: np.ndarray, pressure: np.ndarray, contact_radius: float) -> float:
-    """Largest |p_k − (p_k−1 + p_k+1)/2| along a row inside ``INTERIOR`` of the contact radius.
+    """Amplitude of the pressure's alternation from sub-cell to sub-cell along a row [Pa].
 
-    On a smooth pressure it is the curvature's h²/2 and falls with the cell; a pressure that
-    alternates from sub-cell to sub-cell keeps it.
+    |mean of (−1)ᵏ (p_k − (p_k−1 + p_k+1)/2)| / 2 over the points inside ``INTERIOR`` of the
+    contact radius: p = p̄ + A (−1)ᵏ gives A; a smooth profile's curvature and a single dip
+    (the edge's own fall) average out, to O(1/n) of their size.
     """
     middle = pressure[1:-1] - 0.5 * (pressure[:-2] + pressure[2:])
     inside = r[1:-1] < INTERIOR * contact_radius
-    return float(np.abs(middle[inside]).max()) if inside.any() else float("nan")
+    if not inside.any():
+        return float("nan")
+    signs = (-1.0) ** np.arange(middle.size)
+    return float(abs(np.mean(signs[inside] * middle[inside])) / 2.0)
 
 
 def pressure_profile(sim: Simulation) -> tuple[dict[str, Any], list[dict[str, Any]]]:
