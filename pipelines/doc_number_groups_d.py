@@ -2,7 +2,9 @@
 shipped configs against the limits of the grid and the window refined
 (``data/convergence-certified.csv``, written by ``pipelines/convergence_certify.py``; #32), and
 for the press's increments split between the halves of its load
-(``data/press-load-phases.csv``, written by ``pipelines/press_load_phases.py``).
+(``data/press-load-phases.csv``, written by ``pipelines/press_load_phases.py``), and for its
+pressure at the peak load on sub-cells (``data/press-pressure-profile.csv`` and ``-rows.csv``,
+written by ``pipelines/press_pressure_profile.py``).
 
 Each group is a function of the output folder (unused: the numbers are read from ``data/``)
 returning ``{key: value in SI units}``; ``record_doc_numbers.GROUPS`` registers it.
@@ -98,6 +100,34 @@ def press_load_phases(out: Path) -> dict[str, float]:
     return numbers
 
 
+def press_pressure_profile(out: Path) -> dict[str, float]:
+    """Per run of ``data/press-pressure-profile.csv`` (``profile_{nx}_...``): the largest cell
+    pressure, its radius over the contact's and its distance inside the edge in cells, the
+    contact radius, the splines' largest difference from the cuboids' displacement, each
+    displacement's sub-cell alternation and the change of the largest cell pressure on the
+    cuboids' displacement, relative; from ``-rows.csv`` the cells' pressure nearest the axis."""
+    numbers: dict[str, float] = {}
+    for r in data_rows("press-pressure-profile.csv"):
+        key, value = f"profile_{r['nx']}", {k: float(v) for k, v in r.items()}
+        numbers.update({
+            f"{key}_peak_pressure": value["peak_pressure"],
+            f"{key}_peak_fraction": value["peak_radius"] / value["contact_radius"],
+            f"{key}_peak_inside_cells": (value["contact_radius"] - value["peak_radius"])
+            / value["cell"],
+            f"{key}_contact_radius": value["contact_radius"],
+            f"{key}_splines_minus_cuboids": value["splines_minus_cuboids_max"],
+            f"{key}_sawtooth_splines": value["sawtooth_splines"],
+            f"{key}_sawtooth_cuboids": value["sawtooth_cuboids"],
+            f"{key}_cuboids_peak_change": value["peak_pressure_cuboids"]
+            / value["peak_pressure_splines"] - 1.0})
+    for r in data_rows("press-pressure-profile-rows.csv"):
+        name = f"profile_{r['nx']}_axis_pressure"
+        if r["source"] == "cells" and name not in numbers:
+            numbers[name] = float(r["pressure"])
+    return numbers
+
+
 #: The groups of this module: name -> (speed, function of the output folder).
 GROUPS = {"convergence_certified": ("fast", convergence_certified),
-          "press_load_phases": ("fast", press_load_phases)}
+          "press_load_phases": ("fast", press_load_phases),
+          "press_pressure_profile": ("fast", press_pressure_profile)}
