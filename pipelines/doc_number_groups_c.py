@@ -338,7 +338,8 @@ def convergence_check(out: Path) -> dict[str, float]:
 #: linear-hardening case's `together` at h = 1, 1/2, 1/4 and 1/5, and its increments on the
 #: 80² × 48 grid from 20 + 10; the press's `together` at h = 1, 2/3 and 1/2, its increments
 #: at its shipped 96² × 128 cells, and its lateral cells and layers from there with 40 + 12;
-#: the press's lateral cells and its `together` to a fourth level, its window, the 650 mN
+#: the press's lateral cells and its `together` to a fourth level, its `together`, lateral
+#: cells, layers and increments on sub-cells whose pressure loads the body, its window, the 650 mN
 #: case's window at its shipped grid and the 190 mN and linear-hardening cases' at the study's
 #: base grid).
 REFINED_TABLES = {
@@ -363,6 +364,10 @@ REFINED_TABLES = {
     "presssub4": ("convergence-press-subcells4-summary.csv", "convergence-press-subcells4.csv"),
     "presssubstress": ("convergence-press-subcell-stress-summary.csv",
                        "convergence-press-subcell-stress.csv"),
+    "presssubgrid": ("convergence-press-subcell-stress-grid-summary.csv",
+                     "convergence-press-subcell-stress-grid.csv"),
+    "presssubinc": ("convergence-press-subcell-stress-increments-summary.csv",
+                    "convergence-press-subcell-stress-increments.csv"),
     "presswin": ("convergence-press-window-summary.csv", "convergence-press-window.csv"),
     "win650": ("convergence-window-650-summary.csv", "convergence-window-650.csv"),
     "winbase": ("convergence-window-base-summary.csv", "convergence-window-base.csv"),
