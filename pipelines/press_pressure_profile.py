@@ -52,8 +52,9 @@ def case_for(nx: int, layers: int | None = None,
     """
     depth = shipped_discretisation(base_case(CASE)).depth
     scale = nx / BASE_CELLS
-    load, unload = increments or tuple(round(n * scale) for n in BASE_INCREMENTS)
-    layers = layers or round(BASE_LAYERS * scale)
+    load, unload = (increments if increments is not None
+                    else tuple(round(n * scale) for n in BASE_INCREMENTS))
+    layers = layers if layers is not None else round(BASE_LAYERS * scale)
     return base_case(CASE, [f"grid.nx={nx}", f"grid.ny={nx}",
                             f"grid.nz={layers}", f"grid.depth={depth!r}",
                             f"load_path.0.increments={load}",
@@ -82,14 +83,18 @@ def main(argv: list[str]) -> None:
     refuse_existing_table(args.table, args.overwrite)
     refuse_existing_table(args.profiles, args.overwrite)
     try:
-        cases = [case_for(nx, args.layers, args.increments and tuple(args.increments))
+        cases = [case_for(nx, args.layers,
+                          None if args.increments is None else tuple(args.increments))
                  for nx in args.runs]
     except SacflowError as exc:
         raise SystemExit(f"error: {exc}") from None
     rows, profiles = [], []
     for nx, case in zip(args.runs, cases, strict=True):
         start = time.perf_counter()
-        summary, profile = pressure_profile(simulation_for(case))
+        try:
+            summary, profile = pressure_profile(simulation_for(case))
+        except SacflowError as exc:  # e.g. a step that does not converge: its message, no table
+            raise SystemExit(f"error: {nx}² × {case.grid.nz}: {exc}") from None
         row = {"nx": nx, "layers": case.grid.nz, **summary,
                "seconds": time.perf_counter() - start}
         rows.append(row)

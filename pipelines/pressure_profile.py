@@ -36,6 +36,7 @@ def main(argv: list[str] | None = None) -> int:
     from sacflow.config.solver_inputs import simulation_for
     from sacflow.errors import SacflowError
     from sacflow.storage.case_file import load_case
+    from sacflow.studies.pressure_profile import row_profile
 
     if args.cells < 0:
         print(f"error: --cells must be 0 (to the contact edge) or more, not {args.cells}",
@@ -51,16 +52,14 @@ def main(argv: list[str] | None = None) -> int:
     top = int(np.argmax([s.max_pressure for s in states]))
     pressure = np.asarray(states[top].surface["pressure"], dtype=float)
     x1, x2 = sim.coords.x1, sim.coords.x2
-    row = int(np.argmin(np.abs(x2 - states[top].load_x2)))
-    side = x1 > states[top].load_x1
-    profile = pressure[side, row]
+    along, profile = row_profile(pressure, x1, x2, (states[top].load_x1, states[top].load_x2))
     cells = args.cells or int(np.count_nonzero(profile > 0.0))
     peak = np.unravel_index(int(np.argmax(pressure)), pressure.shape)
     print(json.dumps({
         "case": str(args.case), "overrides": list(args.overrides), "step": top,
         "peak_pressure_GPa": float(pressure[peak]) / GPA,
         "peak_cell_x1_um": float(x1[peak[0]]) * 1e6, "peak_cell_x2_um": float(x2[peak[1]]) * 1e6,
-        "x1_um": [round(float(x) * 1e6, 4) for x in x1[side][:cells]],
+        "x1_um": [round(float(x) * 1e6, 4) for x in along[:cells]],
         "pressure_GPa": [round(float(p) / GPA, 4) for p in profile[:cells]],
     }))
     return 0

@@ -70,10 +70,14 @@ def peak_load_snapshot(sim: Simulation) -> PeakLoadSnapshot:
 
 def row_profile(values: np.ndarray, x1: np.ndarray, x2: np.ndarray,
                 centre: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
-    """Return (r, values) along +x1 on the row of ``values`` nearest the axis through ``centre``."""
+    """Return (x1, values) beyond ``centre`` along +x1, on the row of ``values`` nearest it.
+
+    ``values`` has shape (len(x1), len(x2)) on the points ``x1``, ``x2``; the row is the one
+    whose x2 is nearest ``centre[1]``, and its points those with x1 > ``centre[0]``.
+    """
     j = int(np.argmin(np.abs(x2 - centre[1])))
     ahead = x1 > centre[0]
-    return x1[ahead] - centre[0], values[ahead, j]
+    return x1[ahead], values[ahead, j]
 
 
 def sawtooth(r: np.ndarray, pressure: np.ndarray, contact_radius: float) -> float:
@@ -111,9 +115,11 @@ def pressure_profile(sim: Simulation) -> tuple[dict[str, Any], list[dict[str, An
                                   tol=settings.contact_tolerance,
                                   max_iter=settings.contact_max_iterations, step=snap.step)
               for name, u in (("splines", spline), ("cuboids", cuboids))}
-    r_fine, p_fine = row_profile(snap.subcell_pressure, x1s, x2s, snap.position)
+    x_fine, p_fine = row_profile(snap.subcell_pressure, x1s, x2s, snap.position)
+    r_fine = x_fine - snap.position[0]
     contact_radius = float(r_fine[p_fine > 0].max()) if (p_fine > 0).any() else float("nan")
-    rc, pc = row_profile(snap.pressure, x1c, x2c, snap.position)
+    xc, pc = row_profile(snap.pressure, x1c, x2c, snap.position)
+    rc = xc - snap.position[0]
     where = np.unravel_index(int(np.argmax(snap.pressure)), snap.pressure.shape)
     peak_r = float(np.hypot(x1c[where[0]] - snap.position[0], x2c[where[1]] - snap.position[1]))
     inside = snap.subcell_pressure > 0
@@ -128,7 +134,8 @@ def pressure_profile(sim: Simulation) -> tuple[dict[str, Any], list[dict[str, An
             for r, p in zip(rc, pc, strict=True)]
     for name, result in solved.items():
         assert result.subcell_pressure is not None
-        r, p = row_profile(result.subcell_pressure, x1s, x2s, snap.position)
+        x, p = row_profile(result.subcell_pressure, x1s, x2s, snap.position)
+        r = x - snap.position[0]
         summary[f"peak_pressure_{name}"] = float(result.pressure.max())
         summary[f"sawtooth_{name}"] = sawtooth(r, p, contact_radius)
         rows += [{"source": f"subcells_{name}", "r": float(a), "pressure": float(b)}
