@@ -180,7 +180,7 @@ def _contact(case: Case, surface: MeasuredSurface | None) -> ContactSpec:
     """Return the contact of ``case``: E*, radii, Hertz, friction, the surface of body 1."""
     friction = case.friction
     traction = None  # μ = 0 included: the run is then the frictionless one, bit for bit
-    if friction is not None and friction.coefficient > 0.0:
+    if friction is not None and _friction(case):
         traction = (friction.coefficient * friction.direction[0],
                     friction.coefficient * friction.direction[1])
     dents = tuple(Dent(d.depth, d.width, d.decay, d.x1, d.x2)
@@ -269,7 +269,7 @@ def estimate_case_memory(case: Case) -> MemoryEstimate:
     """
     return estimate_memory(case_body_grid(case), _eigenstrain_operator(case),
                            _anderson_depth(case), _far_traction(case),
-                           case.solver.contact_subcells)
+                           case.solver.contact_subcells, _friction(case))
 
 
 def check_case_memory(case: Case, available: int | None = None) -> MemoryEstimate:
@@ -281,7 +281,13 @@ def check_case_memory(case: Case, available: int | None = None) -> MemoryEstimat
         When the estimate exceeds the available memory (default: available now).
     """
     return check_memory(case_body_grid(case), _eigenstrain_operator(case), _anderson_depth(case),
-                        available, _far_traction(case), case.solver.contact_subcells)
+                        available, _far_traction(case), case.solver.contact_subcells,
+                        _friction(case))
+
+
+def _friction(case: Case) -> bool:
+    """Whether the contact of ``case`` carries a shear traction (a friction coefficient > 0)."""
+    return case.friction is not None and case.friction.coefficient > 0.0
 
 
 def _far_traction(case: Case) -> tuple[float, float] | None:

@@ -70,7 +70,7 @@ References
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -288,6 +288,7 @@ def surface_load_stress_coefficients(
 def subcell_load_stress_coefficients(
     cell: tuple[float, float], subcells: int, depths: NDArray[np.float64], nu: float,
     traction: tuple[float, float] | None = None, sampling: int = 1, thickness: float = 0.0,
+    only: Sequence[tuple[int, int]] | None = None,
 ) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
     """Influence coefficients of a unit pressure on each sub-cell of a cell on the body's stress.
 
@@ -298,6 +299,8 @@ def subcell_load_stress_coefficients(
     Love's rectangle of the sub-cell's size (:func:`sacflow.kernels.surface.rectangle_stress`,
     point by point: the sub-cells' offsets are not whole cells) and, with a ``traction``, its
     shear traction's stresses. The sum over the sub-cells is the cell's own coefficient.
+    With ``only``, the sub-cells (o1, o2) listed, in that order, as the input channels
+    (:class:`sacflow.kernels.subcell_stress.MirroredSubcellStress` keeps a quarter of them).
     """
     from sacflow.kernels.cell_average import cell_mean
     from sacflow.kernels.surface import rectangle_stress
@@ -306,6 +309,8 @@ def subcell_load_stress_coefficients(
     half1, half2 = dx1 / (2 * subcells), dx2 / (2 * subcells)
     centres = (np.arange(subcells) + 0.5) / subcells - 0.5  # in cells, from the cell's centre
     depths = np.asarray(depths, dtype=float)
+    chosen = list(only) if only is not None else [(o1, o2) for o1 in range(subcells)
+                                                  for o2 in range(subcells)]
 
     def at_point(x1: np.ndarray, x2: np.ndarray, depth: float) -> np.ndarray:
         s = rectangle_stress(x1, x2, depth, half1, half2, nu)
@@ -315,16 +320,14 @@ def subcell_load_stress_coefficients(
 
     def coefficients(d1: np.ndarray, d2: np.ndarray) -> np.ndarray:
         shape = np.broadcast_shapes(d1.shape, d2.shape)
-        out = np.empty((depths.size, 6, subcells * subcells, *shape))
+        out = np.empty((depths.size, 6, len(chosen), *shape))
         for k, depth in enumerate(depths):
-            for o1, c1 in enumerate(centres):
-                for o2, c2 in enumerate(centres):
-                    x1, x2 = (d1 - c1) * dx1, (d2 - c2) * dx2
-                    s = cell_mean(lambda p1, p2, p3, x1=x1, x2=x2, depth=float(depth):
-                                  at_point(x1 + p1, x2 + p2, depth + p3),
-                                  sampling, (dx1, dx2, thickness))
-                    out[k, :, o1 * subcells + o2] = np.moveaxis(
-                        np.broadcast_to(s, (*shape, 6)), -1, 0)
-        return out.reshape(6 * depths.size, subcells * subcells, *shape)
+            for channel, (o1, o2) in enumerate(chosen):
+                x1, x2 = (d1 - centres[o1]) * dx1, (d2 - centres[o2]) * dx2
+                s = cell_mean(lambda p1, p2, p3, x1=x1, x2=x2, depth=float(depth):
+                              at_point(x1 + p1, x2 + p2, depth + p3),
+                              sampling, (dx1, dx2, thickness))
+                out[k, :, channel] = np.moveaxis(np.broadcast_to(s, (*shape, 6)), -1, 0)
+        return out.reshape(6 * depths.size, len(chosen), *shape)
 
     return coefficients

@@ -180,19 +180,21 @@ def _contact(grid: BodyGrid, subcells: int = 1) -> MemoryItem:
                       + ("window" if subcells == 1 else "sub-cells of the window"))
 
 
-def _pressure_stress(grid: BodyGrid, inputs: int = 1, name: str = "pressure-stress"
-                     ) -> tuple[MemoryItem, MemoryItem]:
+def _pressure_stress(grid: BodyGrid, inputs: int = 1, name: str = "pressure-stress",
+                     kernels: int | None = None) -> tuple[MemoryItem, MemoryItem]:
     """Size the pressure → stress operator (spectra, buffers) and the coefficients of its set-up.
 
     ``inputs`` pressures per cell: 1 for the cells' pressure, s² for the sub-cells' of a
     contact on s × s sub-cells
-    (:meth:`~sacflow.solver.operators.Operators.subcell_pressure_stress`).
+    (:meth:`~sacflow.solver.operators.Operators.subcell_pressure_stress`); ``kernels`` of them
+    with their own spectra (default all; ⌈s/2⌉² for the sub-cells' without friction,
+    :class:`~sacflow.kernels.subcell_stress.MirroredSubcellStress`).
     """
     from sacflow.kernels.convolution import padded_length
 
     n1, n2 = grid.body
     p1, p2 = padded_length(n1, n1), padded_length(n2, n2)
-    outputs = COMPONENTS * grid.nz * inputs
+    outputs = COMPONENTS * grid.nz * (inputs if kernels is None else kernels)
     spectra = outputs * COMPLEX * p1 * (p2 // 2 + 1)
     buffers = _real_fft_bytes(inputs, p1, p2) + 2 * _real_fft_bytes(COMPONENTS, p1, p2)
     operator = MemoryItem(f"{name} operator", spectra + buffers,
@@ -292,7 +294,7 @@ def _states(grid: BodyGrid, plastic: bool) -> MemoryItem:
 
 def estimate_memory(grid: BodyGrid, plastic: bool, anderson_depth: int,
                     far_traction: tuple[float, float] | None = None,
-                    contact_subcells: int = 1) -> MemoryEstimate:
+                    contact_subcells: int = 1, friction: bool = False) -> MemoryEstimate:
     """Estimated peak resident memory of a run [bytes], by item.
 
     The peak is that of the heavier of two phases: the set-up (operators built, with the
@@ -313,6 +315,9 @@ def estimate_memory(grid: BodyGrid, plastic: bool, anderson_depth: int,
         whose margins depend on them); None without it.
     contact_subcells : int
         Sub-cells per surface cell and axis of the contact (``solver.contact_subcells``).
+    friction : bool
+        Whether the contact carries a shear traction: the sub-cells' kernels are then all
+        kept, without it a quarter of them (their mirror symmetry).
 
     Returns
     -------
@@ -330,8 +335,9 @@ def estimate_memory(grid: BodyGrid, plastic: bool, anderson_depth: int,
     base = [libraries, contact, stress_op]
     phases = [[*base, stress_setup]]  # set-up of the pressure-stress operator
     if contact_subcells > 1:  # and of the sub-cells' pressure's
+        kept = None if friction else ((contact_subcells + 1) // 2) ** 2
         subcell_op, subcell_setup = _pressure_stress(grid, contact_subcells**2,
-                                                     "sub-cell pressure-stress")
+                                                     "sub-cell pressure-stress", kept)
         phases.append([*base, subcell_op, subcell_setup])
         base.append(subcell_op)
     running = [*base, _states(grid, plastic)]
@@ -357,12 +363,12 @@ def estimate_memory(grid: BodyGrid, plastic: bool, anderson_depth: int,
 def check_memory(grid: BodyGrid, plastic: bool, anderson_depth: int,
                  available: int | None = None,
                  far_traction: tuple[float, float] | None = None,
-                 contact_subcells: int = 1) -> MemoryEstimate:
+                 contact_subcells: int = 1, friction: bool = False) -> MemoryEstimate:
     """Estimate the memory of a run and refuse it when the machine does not have it.
 
     Parameters
     ----------
-    grid, plastic, anderson_depth, far_traction, contact_subcells
+    grid, plastic, anderson_depth, far_traction, contact_subcells, friction
         As for :func:`estimate_memory`.
     available : int, optional
         Bytes available; default :func:`available_memory` now.
@@ -378,7 +384,8 @@ def check_memory(grid: BodyGrid, plastic: bool, anderson_depth: int,
         When the estimate exceeds the available memory; the message gives both, the largest
         items and the fix (fewer cells, a shorter rolled track).
     """
-    estimate = estimate_memory(grid, plastic, anderson_depth, far_traction, contact_subcells)
+    estimate = estimate_memory(grid, plastic, anderson_depth, far_traction, contact_subcells,
+                               friction)
     available = available_memory() if available is None else int(available)
     if estimate.total > available:
         raise GridTooLargeError(_too_large(estimate, available))

@@ -104,13 +104,22 @@ class Operators:
         self.subcell_stress_op: Convolution | None = None
         if contact_subcells > 1:
             # the sub-cells' pressures -> stress at the body cells: s² inputs, one transform each
-            self.subcell_stress_op = Convolution(
-                subcell_load_stress_coefficients(cell, contact_subcells, z, nu, traction,
-                                                 stress_sampling, dz),
-                body_shape, body_shape, threads=threads, block=COMPONENTS,
-                cache=("contact_stress", {**self.contact_stress_parameters(),
-                                          "contact_subcells": contact_subcells}),
-            )
+            cache = ("contact_stress", {**self.contact_stress_parameters(),
+                                        "contact_subcells": contact_subcells})
+            if traction is None:  # the sub-cells' kernels mirror each other: keep ⌈s/2⌉²
+                from sacflow.kernels.subcell_stress import MirroredSubcellStress  # numba
+
+                self.subcell_stress_op = MirroredSubcellStress(
+                    subcell_load_stress_coefficients(
+                        cell, contact_subcells, z, nu, None, stress_sampling, dz,
+                        only=MirroredSubcellStress.kept(contact_subcells)),
+                    body_shape, contact_subcells, threads=threads, block=COMPONENTS,
+                    cache=cache)
+            else:  # a shear traction breaks the symmetry
+                self.subcell_stress_op = Convolution(
+                    subcell_load_stress_coefficients(cell, contact_subcells, z, nu, traction,
+                                                     stress_sampling, dz),
+                    body_shape, body_shape, threads=threads, block=COMPONENTS, cache=cache)
         self.eigen: HalfSpaceEigenstrain | None = None
         if plastic:
             from sacflow.kernels.eigenstrain import HalfSpaceEigenstrain
