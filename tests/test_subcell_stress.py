@@ -9,6 +9,8 @@ fold only without friction; the memory estimate counts the kept spectra.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
@@ -19,9 +21,14 @@ from sacflow.kernels.shear import subcell_load_stress_coefficients
 from sacflow.kernels.subcell_stress import MirroredSubcellStress, representative
 from sacflow.solver.operators import Operators
 from sacflow.storage.case_file import load_case
-from tests.test_memory import NANO, item
 
 CELL, NU, DZ = (1.0e-5, 1.3e-5), 0.3, 0.6e-5
+NANO = Path(__file__).resolve().parents[1] / "configs" / "nanoindentation-650mN.toml"
+
+
+def item(estimate, name: str) -> int:
+    """Bytes of the estimate's item ``name``."""
+    return next(i.nbytes for i in estimate.items if i.name == name)
 
 
 def depths(nz: int) -> np.ndarray:
