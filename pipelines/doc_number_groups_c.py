@@ -384,15 +384,16 @@ AGAINST_LIMITS = {"presswinfar": "presswin", "win650far": "win650", "winbasefar"
 #: ``data/convergence-shipped-summary.csv`` (``{tag}_..._level{L}_together_error``).
 AGAINST_TOGETHER = ("incgrid",)
 #: Checks of ``data/convergence-shipped-summary.csv``'s `together` models at h = 1/3 and 1/5,
-#: and of the press's on sub-cells at h = 1/3 (``pipelines/convergence.py --check``): tag ->
-#: table.
+#: and of the press's on sub-cells at h = 1/3 and, its body loaded by their pressure, at h = 2/5
+#: and 1/3 (``pipelines/convergence.py --check``): tag -> table.
 SHIPPED_CHECKS = {"shipcheck": "convergence-shipped-check.csv",
                   "shipcheck5": "convergence-shipped-check-5.csv",
                   "presssubcheck": "convergence-press-subcells-check-3.csv",
-                  "presssubstresscheck": "convergence-press-subcell-stress-check-5.csv"}
+                  "presssubstresscheck": "convergence-press-subcell-stress-check-5.csv",
+                  "presssubstresscheck3": "convergence-press-subcell-stress-check-3.csv"}
 #: The press's checks whose largest miss of the model over the certified quantities is quoted
 #: (``{tag}_press_largest_discrepancy``): the smeared pressure's at h = 1/3, the sub-cells'
-#: pressure's at h = 2/5.
+#: pressure's at h = 2/5 and 1/3.
 PRESS_CHECK_STEMS = ("print_depth_refined", "peak_pressure", "max_eqps_refined",
                      "s11_min_refined", "s11_025a_refined", "s11_05a_refined", "s11_1a_refined",
                      "s11_15a_refined", "s11_2a_refined")
@@ -498,7 +499,7 @@ def convergence_refined(out: Path) -> dict[str, float]:
         numbers[f"shipcheck5_{case}_largest_discrepancy"] = max(sizes.values())
         numbers[f"shipcheck5_{case}_largest_discrepancy_but_depth"] = max(
             v for stem, v in sizes.items() if stem != "max_eqps_refined_depth")
-    for tag in ("presssubcheck", "presssubstresscheck"):
+    for tag in ("presssubcheck", "presssubstresscheck", "presssubstresscheck3"):
         numbers[f"{tag}_press_largest_discrepancy"] = max(
             abs(numbers[key]) for stem in PRESS_CHECK_STEMS
             if (key := f"{tag}_press_{stem}_discrepancy") in numbers)
