@@ -73,8 +73,9 @@ def folded_products(kernels: np.ndarray, inputs: np.ndarray, kept: np.ndarray,
         Per sub-cell: the index of its kept sub-cell's kernels, and its mirror's code
         (:data:`MIRRORS`: 0 none, 1 x1, 2 x2, 3 both). K̃ is the kernel at row ``k1`` (0, 3)
         or ``L1 − k1`` (1, 2), conjugated for 2 and 3 (module docstring).
-    signs : float ndarray (4, b)
-        Sign of each output component under each mirror.
+    signs : float ndarray (4, 6)
+        Sign of each stress component under each mirror; output ``c`` is component ``c % 6``
+        (a block of whole layers).
     out : complex ndarray (b, L1, L2h)
         Overwritten.
     """
@@ -86,7 +87,7 @@ def folded_products(kernels: np.ndarray, inputs: np.ndarray, kept: np.ndarray,
                 out[c, k1, j] = 0.0
             for o in range(inputs.shape[0]):
                 code = mirror[o]
-                sign = signs[code, c]
+                sign = signs[code, c % signs.shape[1]]
                 row = mirrored_row if code == 1 or code == 2 else k1
                 kernel = kernels[c, kept[o], row]
                 if code >= 2:
@@ -145,8 +146,7 @@ class MirroredSubcellStress(Convolution):
                 codes.append((r1 * kept + r2, MIRRORS.index((m1, m2))))
         self._kept = np.array([k for k, _ in codes], dtype=np.int64)
         self._mirror = np.array([m for _, m in codes], dtype=np.int64)
-        per_mirror = np.array([PARITY[0] ** m1 * PARITY[1] ** m2 for m1, m2 in MIRRORS])
-        self._signs = np.tile(per_mirror, (1, self.n_out // components))  # (4, n_out)
+        self._signs = np.array([PARITY[0] ** m1 * PARITY[1] ** m2 for m1, m2 in MIRRORS])
 
     @staticmethod
     def kept(subcells: int) -> list[tuple[int, int]]:
@@ -162,7 +162,7 @@ class MirroredSubcellStress(Convolution):
         for k0, k1 in self._blocks:
             acc = self._inverse.spectrum[: k1 - k0]
             folded_products(self.spectra[k0:k1], spectra, self._kept, self._mirror,
-                            np.ascontiguousarray(self._signs[:, k0:k1]), acc)
+                            self._signs, acc)
             if k1 - k0 < self.block:  # a last, shorter block: the rest of the batch is unused
                 self._inverse.spectrum[k1 - k0:] = 0.0
             real = self._inverse.inverse()
