@@ -59,7 +59,8 @@ class Sources:
 #: Case -> its tables. The 650 mN case's window sequence runs at its shipped grid, the 190 mN
 #: and linear-hardening cases' at the study's base grid (64² × 24 cells, 10 + 5 increments),
 #: the press's at 48² × 64 cells with 20 + 6 increments. The press's `together` is the one with
-#: its contact on sub-cells whose pressure loads the body, as it ships; its window sequence ran
+#: its contact on sub-cells whose pressure loads the body, as it ships, to a fourth level and
+#: extrapolated through the finest three; its window sequence ran
 #: on the cells, and the transfer (:func:`sacflow.studies.certify.transfer`) carries what that
 #: changes.
 SOURCES = {
@@ -73,7 +74,7 @@ SOURCES = {
         "convergence-shipped-summary.csv", "convergence-window-base.csv",
         "convergence-window-base-far.csv", "convergence-window-base-far-summary.csv"),
     "dent-from-indentation-press": Sources(
-        "convergence-press-subcell-stress-summary.csv", "convergence-press-window.csv",
+        "convergence-press-subcell-stress4-summary.csv", "convergence-press-window.csv",
         "convergence-press-window-far.csv",
         "convergence-press-shipped-subcell-stress-far-summary.csv"),
 }

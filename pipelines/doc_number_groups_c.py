@@ -339,9 +339,9 @@ def convergence_check(out: Path) -> dict[str, float]:
 #: 80² × 48 grid from 20 + 10; the press's `together` at h = 1, 2/3 and 1/2, its increments
 #: at its shipped 96² × 128 cells, and its lateral cells and layers from there with 40 + 12;
 #: the press's lateral cells and its `together` to a fourth level, its `together`, lateral
-#: cells, layers and increments on sub-cells whose pressure loads the body, its window, the 650 mN
-#: case's window at its shipped grid and the 190 mN and linear-hardening cases' at the study's
-#: base grid).
+#: cells, layers and increments on sub-cells whose pressure loads the body (that `together` also
+#: to a fourth level), its window, the 650 mN case's window at its shipped grid and the 190 mN
+#: and linear-hardening cases' at the study's base grid).
 REFINED_TABLES = {
     "refined": ("convergence-refined-summary.csv", "convergence-refined.csv"),
     "layers4": ("convergence-refined-layers4-summary.csv", "convergence-refined-layers4.csv"),
@@ -364,6 +364,8 @@ REFINED_TABLES = {
     "presssub4": ("convergence-press-subcells4-summary.csv", "convergence-press-subcells4.csv"),
     "presssubstress": ("convergence-press-subcell-stress-summary.csv",
                        "convergence-press-subcell-stress.csv"),
+    "presssubstress4": ("convergence-press-subcell-stress4-summary.csv",
+                        "convergence-press-subcell-stress4.csv"),
     "presssubgrid": ("convergence-press-subcell-stress-grid-summary.csv",
                      "convergence-press-subcell-stress-grid.csv"),
     "presssubinc": ("convergence-press-subcell-stress-increments-summary.csv",
