@@ -56,7 +56,6 @@ every case (e.g. ``--set solver.fft_threads=1``). See docs/convergence.md.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import fractions
 import hashlib
 import json
@@ -72,7 +71,7 @@ from typing import Any
 
 from sacflow.config.solver_inputs import simulation_for
 from sacflow.errors import SacflowError
-from sacflow.solver.state import State
+from sacflow.solver.history import scalars_only
 from sacflow.studies.convergence import (
     SEQUENCES,
     STUDY_CASES,
@@ -422,16 +421,6 @@ class LevelRunner:
             "elapsed": elapsed, "converged": all(s.converged for s in states),
             "quantities": quantities, "profile": profile,
         }
-
-
-def scalars_only(state: State) -> State:
-    """``state`` without its arrays: what :func:`measure` reads of every step, light.
-
-    A state carries its restart (the plastic strain tensor and its equivalent, copied) and its
-    surface fields; kept for every increment they would grow with the run, 0.2 GiB a step at
-    144² × 192 cells. The fields measured come from the simulation's last state.
-    """
-    return dataclasses.replace(state, restart={}, surface={}, volume={})
 
 
 def write_json(path: Path, record: dict[str, Any]) -> None:

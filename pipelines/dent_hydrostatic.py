@@ -33,6 +33,7 @@ import numpy as np
 
 from sacflow.config.solver_inputs import simulation_for
 from sacflow.errors import SacflowError
+from sacflow.solver.history import light_history
 from sacflow.studies.convergence import (
     STUDY_CASES,
     WITHOUT_FAR_TRACTION,
@@ -86,7 +87,7 @@ def run_grid(nx: int, nz: int, depth: float) -> dict[str, Any]:
     case = base_case(STUDY_CASE, [*AS_STUDIED, f"grid.nx={nx}", f"grid.ny={nx}",
                                   f"grid.nz={nz}", f"grid.depth={depth!r}"])
     sim = simulation_for(case)
-    states = list(sim.run())
+    states = light_history(sim.run())
     x1, x2, x3 = sim.coords.x1, sim.coords.x2, sim.coords.x3
     j = int(np.argmin(np.abs(x2)))
     i = int(np.argmin(np.abs(x1)))

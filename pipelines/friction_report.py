@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from sacflow.config.solver_inputs import simulation_for
+from sacflow.solver.history import light_history
 from sacflow.storage.case_file import load_case
 
 CASE = Path(__file__).resolve().parents[1] / "configs" / "sliding-hertz.toml"
@@ -49,7 +50,7 @@ def report(mu: float, cells: int, layers: int) -> dict[str, float]:
                             f"grid.ny={cells}", f"grid.nz={layers}",
                             f"grid.half_width={HALF_WIDTH}", f"grid.depth={DEPTH * a!r}"])
     sim = simulation_for(case)
-    state = list(sim.run())[-1]
+    state = light_history(sim.run())[-1]
     p0 = sim.hertz.p0
     vm = state.volume["von_mises"] / p0
     i, j, k = np.unravel_index(int(vm.argmax()), vm.shape)

@@ -13,6 +13,7 @@ import numpy as np
 
 from sacflow.config.solver_inputs import solver_inputs
 from sacflow.errors import InputError
+from sacflow.solver.history import light_history
 from sacflow.solver.simulation import Simulation
 from sacflow.storage.case_file import load_case
 
@@ -31,7 +32,7 @@ def main(argv: list[str]) -> None:
         sys.exit(str(exc))
     start = time.time()
     sim = Simulation(solver_inputs(case))
-    states = list(sim.run())
+    states = light_history(sim.run())
     elapsed = time.time() - start
     x1, x3 = sim.coords.x1, sim.coords.x3
     ep = sim.equivalent_plastic_strain

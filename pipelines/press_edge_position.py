@@ -40,6 +40,7 @@ import numpy as np
 from sacflow.config.case import Case
 from sacflow.config.solver_inputs import simulation_for
 from sacflow.errors import SacflowError
+from sacflow.solver.history import light_history
 from sacflow.solver.state import State
 from sacflow.studies.convergence import (
     STUDY_CASES,
@@ -102,7 +103,7 @@ def run_window(case: Case) -> dict[str, float]:
     nx = case.grid.nx
     start = time.perf_counter()
     sim = simulation_for(case)
-    states = list(sim.run())
+    states = light_history(sim.run(), fields_of=lambda s: s.load)
     quantities, _ = measure(sim, states, case.hertz().a)
     x1, x2 = sim.coords.x1, sim.coords.x2
     h = float(x1[1] - x1[0])

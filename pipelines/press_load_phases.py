@@ -36,6 +36,7 @@ from typing import Any
 from sacflow.config.case import Case
 from sacflow.config.solver_inputs import simulation_for
 from sacflow.errors import SacflowError
+from sacflow.solver.history import light_history
 from sacflow.studies.convergence import (
     STUDY_CASES,
     WITHOUT_SUBCELLS,
@@ -90,7 +91,7 @@ def run_schedule(schedule: str, case: Case) -> dict[str, Any]:
     """Run ``case`` and return its row of the table."""
     start = time.perf_counter()
     sim = simulation_for(case)
-    states = list(sim.run())
+    states = light_history(sim.run())
     quantities, _ = measure(sim, states, case.hertz().a)
     load_increments = tuple(seg.increments for seg in case.load_path[:2])
     return {"schedule": schedule, "nx": case.grid.nx, "nz": case.grid.nz,

@@ -26,6 +26,7 @@ import numpy as np
 
 from sacflow.config.solver_inputs import solver_inputs
 from sacflow.errors import InputError
+from sacflow.solver.history import light_history
 from sacflow.solver.simulation import Simulation
 from sacflow.studies.convergence import (
     STUDY_CASES,
@@ -65,7 +66,7 @@ def main(argv: list[str]) -> None:
     start = time.time()
     sim = Simulation(solver_inputs(case))
     setup = time.time() - start
-    states = list(sim.run())
+    states = light_history(sim.run())
     elapsed = time.time() - start
     residual = states[-1].volume["residual_stress"]
     x1, x2, x3 = sim.coords.x1, sim.coords.x2, sim.coords.x3

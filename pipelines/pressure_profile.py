@@ -35,6 +35,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parse(argv)
     from sacflow.config.solver_inputs import simulation_for
     from sacflow.errors import SacflowError
+    from sacflow.solver.history import light_history
     from sacflow.storage.case_file import load_case
     from sacflow.studies.pressure_profile import row_profile
 
@@ -45,7 +46,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         case = load_case(args.case, list(args.overrides))
         sim = simulation_for(case)
-        states = list(sim.run())
+        states = light_history(sim.run(), fields_of=lambda s: s.max_pressure)
     except SacflowError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
