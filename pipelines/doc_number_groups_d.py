@@ -4,7 +4,8 @@ shipped configs against the limits of the grid and the window refined
 for the press's increments split between the halves of its load
 (``data/press-load-phases.csv``, written by ``pipelines/press_load_phases.py``), and for its
 pressure at the peak load on sub-cells (``data/press-pressure-profile.csv`` and ``-rows.csv``,
-written by ``pipelines/press_pressure_profile.py``).
+written by ``pipelines/press_pressure_profile.py``), and for the shape of its largest εp
+(``data/press-plastic-peak.csv``, written by ``pipelines/press_plastic_peak.py``).
 
 Each group is a function of the output folder (unused: the numbers are read from ``data/``)
 returning ``{key: value in SI units}``; ``record_doc_numbers.GROUPS`` registers it.
@@ -127,7 +128,15 @@ def press_pressure_profile(out: Path) -> dict[str, float]:
     return numbers
 
 
+def press_plastic_peak(out: Path) -> dict[str, float]:
+    """Each row of ``data/press-plastic-peak.csv`` (``plastic_peak_{quantity}``): the shape of
+    the shipped press's largest εp, written by ``pipelines/press_plastic_peak.py``."""
+    return {f"plastic_peak_{r['quantity']}": float(r["value"])
+            for r in data_rows("press-plastic-peak.csv")}
+
+
 #: The groups of this module: name -> (speed, function of the output folder).
 GROUPS = {"convergence_certified": ("fast", convergence_certified),
           "press_load_phases": ("fast", press_load_phases),
-          "press_pressure_profile": ("fast", press_pressure_profile)}
+          "press_pressure_profile": ("fast", press_pressure_profile),
+          "press_plastic_peak": ("fast", press_plastic_peak)}

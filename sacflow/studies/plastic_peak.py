@@ -1,0 +1,97 @@
+"""How flat the largest equivalent plastic strain is, around the cell that holds it.
+
+The convergence study certifies the largest εp of a run and its depth
+(:func:`sacflow.compare.fields.refined_peak`: a parabola through the largest cell value and its
+two neighbours along each axis). Where the maximum is flat, its value is well defined but its
+place is not: a change δ of the relative value moves the vertex of a parabola of relative
+curvature κ = −f''/f by √(2δ/κ), however fine the grid. :func:`peak_shape` measures that
+flatness on a finished run's field, so that an error of the depth can be read as the error of
+εp that it stands for:
+
+* the depth parabola through the column of the largest cell (its vertex, and the relative drop
+  of εp at any other depth, :meth:`PeakShape.drop_at`);
+* the maximum's distance from the load axis (below an indentation it lies on a ring near the
+  contact's edge);
+* how much the ring's value varies round the axis at the maximum's layer: over the cells whose
+  distance from the axis is within half a cell of the maximum's, (largest − smallest) / largest.
+  On a square grid a ring's cells sit at different places relative to the ring, so its largest
+  cell, and with it the depth read there, is the grid's choice among nearly equal values.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from sacflow.compare.fields import refined_peak
+
+__all__ = ["PeakShape", "peak_shape"]
+
+
+@dataclass(frozen=True)
+class PeakShape:
+    """The shape of a field's maximum (see the module docstring); lengths in metres.
+
+    ``value`` and ``depth`` are :func:`~sacflow.compare.fields.refined_peak`'s; ``radius`` is
+    the largest cell's distance from the load axis; ``layer`` its layer thickness;
+    ``above`` and ``below`` the relative differences (f − f₀) / f₀ of the cells one layer
+    shallower and deeper in its column; ``curvature`` the relative curvature −f''/f of the
+    parabola through them at its vertex [1/m²] (its vertex is ``depth``); ``ring_spread`` the
+    relative spread of the cell values round the axis at the maximum's layer.
+    """
+
+    value: float
+    depth: float
+    radius: float
+    layer: float
+    above: float
+    below: float
+    curvature: float
+    ring_spread: float
+
+    def drop_at(self, depth: float) -> float:
+        """Relative fall of the depth parabola from its vertex at ``depth`` [m] (≥ 0)."""
+        return 0.5 * self.curvature * (depth - self.depth) ** 2
+
+
+def peak_shape(field: np.ndarray, x1: np.ndarray, x2: np.ndarray, x3: np.ndarray,
+               axis: tuple[float, float] = (0.0, 0.0)) -> PeakShape:
+    """Measure the maximum of a cell-centred field on (x1, x2, x3) (uniform spacings).
+
+    Parameters
+    ----------
+    field : ndarray
+        Cell values, shape (len(x1), len(x2), len(x3)); NaN (cells outside the plastic box)
+        ignored.
+    x1, x2, x3 : ndarray
+        Cell-centre coordinates [m]; x3 is the depth.
+    axis : tuple of float
+        (x1, x2) of the load axis [m].
+
+    Raises
+    ------
+    ValueError
+        When the largest cell lies in the first or last layer: no parabola through its column.
+    """
+    values = np.asarray(field, dtype=float)
+    value, where = refined_peak(values, (x1, x2, x3))
+    i, j, k = np.unravel_index(int(np.nanargmax(values)), values.shape)
+    if not 0 < k < len(x3) - 1:
+        raise ValueError(f"the largest value lies in layer {k} of {len(x3)}: no layer on "
+                         "both sides of it")
+    column = values[i, j, k - 1:k + 2]
+    peak = float(column[1])
+    a, b, c = np.polyfit(np.asarray(x3[k - 1:k + 2], dtype=float), column, 2)
+    # the largest cell is its column's largest, so the parabola is concave or flat (a ≤ 0)
+    vertex_value = c - b * b / (4.0 * a) if a < 0.0 else peak
+    radii = np.hypot(np.asarray(x1)[:, None] - axis[0], np.asarray(x2)[None, :] - axis[1])
+    radius = float(radii[i, j])
+    half_cell = 0.5 * float(max(x1[1] - x1[0], x2[1] - x2[0]))
+    ring = values[..., k][np.abs(radii - radius) <= half_cell]
+    ring = ring[np.isfinite(ring)]
+    return PeakShape(
+        value=float(value), depth=float(where[2]), radius=radius,
+        layer=float(x3[1] - x3[0]), above=float(column[0]) / peak - 1.0,
+        below=float(column[2]) / peak - 1.0, curvature=float(max(-2.0 * a, 0.0) / vertex_value),
+        ring_spread=float((ring.max() - ring.min()) / ring.max()))
