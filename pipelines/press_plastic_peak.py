@@ -27,23 +27,28 @@ from pathlib import Path
 import numpy as np
 
 from sacflow.errors import SacflowError
-from sacflow.studies.convergence_table import write_csv
+from sacflow.studies.convergence_table import TARGET_ERROR, add_table_arguments, write_csv
 from sacflow.studies.plastic_peak import peak_shape
 
 DATA = Path(__file__).resolve().parents[1] / "data"
 #: The press's case in the certificate, and the certified quantity whose limit is read.
 CASE, DEPTH = "dent-from-indentation-press", "max_plastic_strain_refined_depth"
 COLUMNS = ("quantity", "value", "unit")
-#: The study's target (half a percent): the εp resolution a depth that close to its limit asks.
-TARGET = 0.005
+#: What the run file must store: the last step's εp and the contact area of every step.
+NEEDED = ("equivalent_plastic_strain", "contact_area")
 
 
 def certified_depth(table: Path = DATA / "convergence-certified.csv") -> tuple[float, float]:
     """The press's certified limit of the largest εp's depth and its shipped value [m]."""
-    with table.open(encoding="utf-8") as f:
-        for row in csv.DictReader(f):
-            if row["case"] == CASE and row["quantity"] == DEPTH:
-                return float(row["limit"]), float(row["shipped_value"])
+    try:
+        with table.open(encoding="utf-8") as f:
+            for row in csv.DictReader(f):
+                if row.get("case") == CASE and row.get("quantity") == DEPTH:
+                    return float(row["limit"]), float(row["shipped_value"])
+    except OSError as err:
+        raise SacflowError(f"cannot read the certificate {table}: {err}; regenerate it with "
+                           "python pipelines/convergence_certify.py --table "
+                           "data/convergence-certified.csv") from err
     raise SacflowError(f"{table} has no row for {CASE} {DEPTH}")
 
 
@@ -56,13 +61,17 @@ def measure_run(path: Path) -> list[dict[str, object]]:
     except (OSError, ValueError) as err:
         raise SacflowError(f"cannot read {path} as a run file: {err}") from err
     with ds:
-        if "equivalent_plastic_strain" not in ds:
-            raise SacflowError(f"{path} stores no equivalent_plastic_strain: run the press "
-                               "with its shipped [output] fields")
+        missing = [name for name in NEEDED if name not in ds]
+        if missing:
+            raise SacflowError(f"{path} stores no {', '.join(missing)}: run the press with "
+                               "its shipped [output] fields")
         last = ds["equivalent_plastic_strain"].isel(step=-1).transpose("x1", "x2", "x3")
         field = np.asarray(last.values, dtype=float)
         x1, x2, x3 = (np.asarray(ds[c].values, dtype=float) for c in ("x1", "x2", "x3"))
         contact = math.sqrt(float(ds["contact_area"].max()) / math.pi)
+    if not np.nanmax(field, initial=0.0) > 0.0:
+        raise SacflowError(f"{path}: no plastic strain at its last step, so no maximum to "
+                           "measure")
     shape = peak_shape(field, x1, x2, x3)
     limit, shipped = certified_depth()
     rows = {
@@ -75,7 +84,8 @@ def measure_run(path: Path) -> list[dict[str, object]]:
         "certified_shipped_depth": (shipped, "m"),
         "drop_at_certified_limit": (shape.drop_at(limit), "1"),
         "shipped_minus_limit": (shipped - limit, "m"),
-        "drop_over_half_percent_of_depth": (shape.drop_at(shape.depth + TARGET * limit), "1"),
+        "drop_over_half_percent_of_depth": (
+            shape.drop_at(shape.depth + TARGET_ERROR * limit), "1"),
     }
     return [{"quantity": k, "value": f"{v:.10g}", "unit": u} for k, (v, u) in rows.items()]
 
@@ -83,8 +93,7 @@ def measure_run(path: Path) -> list[dict[str, object]]:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("run", type=Path, help="a finished run file of the press (netCDF)")
-    parser.add_argument("--table", type=Path, help="write the numbers here (CSV)")
-    parser.add_argument("--overwrite", action="store_true", help="replace an existing table")
+    add_table_arguments(parser)
     args = parser.parse_args(argv)
     try:
         rows = measure_run(args.run)

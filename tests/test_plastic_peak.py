@@ -89,3 +89,25 @@ def test_the_script_reads_a_run_and_never_replaces_a_table(tmp_path, capsys) -> 
     assert "exists" in capsys.readouterr().err and table.read_text() == before
     assert module.main([str(tmp_path / "missing.nc")]) == 1
     assert "cannot read" in capsys.readouterr().err
+
+
+def test_the_script_says_what_a_run_file_lacks(tmp_path, capsys) -> None:
+    import importlib.util
+    from pathlib import Path
+
+    import xarray as xr
+
+    script = Path(__file__).resolve().parents[1] / "pipelines" / "press_plastic_peak.py"
+    spec = importlib.util.spec_from_file_location("press_plastic_peak", script)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    no_area = tmp_path / "no-area.nc"
+    xr.Dataset({"equivalent_plastic_strain": (("step", "x1", "x2", "x3"), ring()[None])},
+               coords={"step": [0], "x1": X, "x2": X, "x3": Z}).to_netcdf(no_area)
+    assert module.main([str(no_area)]) == 1
+    assert "stores no contact_area" in capsys.readouterr().err
+    elastic = tmp_path / "elastic.nc"
+    run_file(elastic, np.zeros_like(ring()))
+    assert module.main([str(elastic)]) == 1
+    assert "no plastic strain" in capsys.readouterr().err

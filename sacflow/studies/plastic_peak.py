@@ -80,11 +80,12 @@ def peak_shape(field: np.ndarray, x1: np.ndarray, x2: np.ndarray, x3: np.ndarray
     if not 0 < k < len(x3) - 1:
         raise ValueError(f"the largest value lies in layer {k} of {len(x3)}: no layer on "
                          "both sides of it")
-    column = values[i, j, k - 1:k + 2]
-    peak = float(column[1])
-    a, b, c = np.polyfit(np.asarray(x3[k - 1:k + 2], dtype=float), column, 2)
-    # the largest cell is its column's largest, so the parabola is concave or flat (a ≤ 0)
-    vertex_value = c - b * b / (4.0 * a) if a < 0.0 else peak
+    above, peak, below = (float(v) for v in values[i, j, k - 1:k + 2])
+    layer = float(x3[1] - x3[0])
+    # the parabola through the three (uniform layers): f'' and its vertex value; the largest
+    # cell is its column's largest, so it is concave or flat (second ≤ 0)
+    second = above - 2.0 * peak + below
+    vertex_value = peak - (above - below) ** 2 / (8.0 * second) if second < 0.0 else peak
     radii = np.hypot(np.asarray(x1)[:, None] - axis[0], np.asarray(x2)[None, :] - axis[1])
     radius = float(radii[i, j])
     half_cell = 0.5 * float(max(x1[1] - x1[0], x2[1] - x2[0]))
@@ -92,6 +93,6 @@ def peak_shape(field: np.ndarray, x1: np.ndarray, x2: np.ndarray, x3: np.ndarray
     ring = ring[np.isfinite(ring)]
     return PeakShape(
         value=float(value), depth=float(where[2]), radius=radius,
-        layer=float(x3[1] - x3[0]), above=float(column[0]) / peak - 1.0,
-        below=float(column[2]) / peak - 1.0, curvature=float(max(-2.0 * a, 0.0) / vertex_value),
+        layer=layer, above=above / peak - 1.0, below=below / peak - 1.0,
+        curvature=max(-second, 0.0) / (layer * layer * vertex_value),
         ring_spread=float((ring.max() - ring.min()) / ring.max()))
