@@ -30,6 +30,20 @@ from sacflow.storage.case_file import load_case
 CASE = Path(__file__).resolve().parents[1] / "configs" / "sliding-hertz.toml"
 #: Half-width of the window and depth of the box, in contact radii.
 HALF_WIDTH, DEPTH = 1.25, 1.0
+#: Cells within this relative distance of the largest value tie with it: the mirror cells of a
+#: field symmetric about the load's axis (μ = 0) differ only by rounding, which differs from one
+#: processor to another.
+TIE = 1e-9
+
+
+def where_largest(values: np.ndarray, *coords: np.ndarray) -> tuple[float, ...]:
+    """Position of the largest of ``values`` (one coordinate array per axis).
+
+    Cells that tie with it (:data:`TIE`) are averaged: a maximum shared by mirror cells is read
+    on the mirror plane between them, not in whichever cell rounding made the larger.
+    """
+    tied = np.nonzero(values >= values.max() * (1.0 - TIE))
+    return tuple(float(np.mean(c[index])) for c, index in zip(coords, tied, strict=True))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -53,16 +67,16 @@ def report(mu: float, cells: int, layers: int) -> dict[str, float]:
     state = light_history(sim.run())[-1]
     p0 = sim.hertz.p0
     vm = state.volume["von_mises"] / p0
-    i, j, k = np.unravel_index(int(vm.argmax()), vm.shape)
     c = sim.coords
+    x1, x2, x3 = where_largest(vm, c.x1, c.x2, c.x3)
     vm_max = float(vm.max())
     top = vm[..., 0]  # the first layer, 0.5/layers deep: the surface as the grid sees it
-    ti, tj = np.unravel_index(int(top.argmax()), top.shape)
+    top_x1, _ = where_largest(top, c.x1, c.x2)
     return {"mu": mu, "cells": cells, "layers": layers, "von_mises_max_over_p0": vm_max,
-            "x1_over_a": float(c.x1[i] / a), "x2_over_a": float(c.x2[j] / a),
-            "depth_over_a": float(c.x3[k] / a), "first_yield_p0_over_k": math.sqrt(3) / vm_max,
-            "first_layer_max_over_p0": float(top.max()), "first_layer_x1_over_a":
-            float(c.x1[ti] / a), "first_layer_depth_over_a": float(c.x3[0] / a)}
+            "x1_over_a": x1 / a, "x2_over_a": x2 / a,
+            "depth_over_a": x3 / a, "first_yield_p0_over_k": math.sqrt(3) / vm_max,
+            "first_layer_max_over_p0": float(top.max()), "first_layer_x1_over_a": top_x1 / a,
+            "first_layer_depth_over_a": float(c.x3[0] / a)}
 
 
 if __name__ == "__main__":
