@@ -65,7 +65,7 @@ class Sources:
 #: changes.
 SOURCES = {
     "nanoindentation-650mN": Sources(
-        "convergence-shipped-summary.csv", "convergence-window-650.csv",
+        "convergence-650-steps6-summary.csv", "convergence-window-650.csv",
         "convergence-window-650-far.csv", "convergence-window-650-far-summary.csv"),
     "nanoindentation-190mN": Sources(
         "convergence-shipped-summary.csv", "convergence-window-base.csv",

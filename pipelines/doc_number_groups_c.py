@@ -371,6 +371,8 @@ REFINED_TABLES = {
     "presssubinc": ("convergence-press-subcell-stress-increments-summary.csv",
                     "convergence-press-subcell-stress-increments.csv"),
     "presswin": ("convergence-press-window-summary.csv", "convergence-press-window.csv"),
+    "steps650five": ("convergence-650-steps5-summary.csv", "convergence-650-steps5.csv"),
+    "steps650six": ("convergence-650-steps6-summary.csv", "convergence-650-steps6.csv"),
     "win650": ("convergence-window-650-summary.csv", "convergence-window-650.csv"),
     "winbase": ("convergence-window-base-summary.csv", "convergence-window-base.csv"),
     "presswinfar": ("convergence-press-window-far-summary.csv",
