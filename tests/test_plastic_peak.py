@@ -66,7 +66,8 @@ def run_file(path, field: np.ndarray) -> None:
                coords={"step": [0, 1], "x1": X, "x2": X, "x3": Z}).to_netcdf(path)
 
 
-def test_the_script_reads_a_run_and_never_replaces_a_table(tmp_path, capsys) -> None:
+def _script():
+    """``pipelines/press_plastic_peak.py`` as a module."""
     import importlib.util
     from pathlib import Path
 
@@ -75,6 +76,11 @@ def test_the_script_reads_a_run_and_never_replaces_a_table(tmp_path, capsys) -> 
     assert spec is not None and spec.loader is not None
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
+    return module
+
+
+def test_the_script_reads_a_run_and_never_replaces_a_table(tmp_path, capsys) -> None:
+    module = _script()
     run, table = tmp_path / "press.nc", tmp_path / "peak.csv"
     run_file(run, ring())
     assert module.main([str(run), "--table", str(table)]) == 0
@@ -92,16 +98,9 @@ def test_the_script_reads_a_run_and_never_replaces_a_table(tmp_path, capsys) -> 
 
 
 def test_the_script_says_what_a_run_file_lacks(tmp_path, capsys) -> None:
-    import importlib.util
-    from pathlib import Path
-
     import xarray as xr
 
-    script = Path(__file__).resolve().parents[1] / "pipelines" / "press_plastic_peak.py"
-    spec = importlib.util.spec_from_file_location("press_plastic_peak", script)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    module = _script()
     no_area = tmp_path / "no-area.nc"
     xr.Dataset({"equivalent_plastic_strain": (("step", "x1", "x2", "x3"), ring()[None])},
                coords={"step": [0], "x1": X, "x2": X, "x3": Z}).to_netcdf(no_area)
