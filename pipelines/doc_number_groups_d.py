@@ -5,7 +5,9 @@ for the press's increments split between the halves of its load
 (``data/press-load-phases.csv``, written by ``pipelines/press_load_phases.py``), and for its
 pressure at the peak load on sub-cells (``data/press-pressure-profile.csv`` and ``-rows.csv``,
 written by ``pipelines/press_pressure_profile.py``), and for the shape of its largest εp
-(``data/press-plastic-peak.csv``, written by ``pipelines/press_plastic_peak.py``).
+(``data/press-plastic-peak.csv``, written by ``pipelines/press_plastic_peak.py``), and for the
+solver's tolerances' share of the 650 mN `together` levels' changes
+(``data/convergence-650-tolerances.csv`` against ``data/convergence-650-steps6.csv``).
 
 Each group is a function of the output folder (unused: the numbers are read from ``data/``)
 returning ``{key: value in SI units}``; ``record_doc_numbers.GROUPS`` registers it.
@@ -135,8 +137,40 @@ def press_plastic_peak(out: Path) -> dict[str, float]:
             for r in data_rows("press-plastic-peak.csv")}
 
 
+#: The 650 mN `together` levels with tight tolerances, and the same levels with the defaults.
+TOLERANCE_TABLES = ("convergence-650-tolerances.csv", "convergence-650-steps6.csv")
+
+
+def convergence_tolerances(out: Path) -> dict[str, float]:
+    """Per quantity, the largest change the tight tolerances make over the levels both tables
+    hold: relative to the default run's value (``tol650_{stem}_largest``), in the quantity's
+    unit (``tol650_{stem}_largest_absolute``) and, for the σ11 on the axis, relative to the
+    largest magnitude of its profile, the finest common level's minimum σ11 on the axis
+    (``tol650_{stem}_largest_scaled``)."""
+    tight, default = ({(r["level"], r["quantity"]): float(r["value"])
+                       for r in data_rows(name) if r["value"]} for name in TOLERANCE_TABLES)
+    common = sorted(key for key in tight if key in default)
+    finest = max(int(level) for level, _ in common)
+    scale = abs(default[(str(finest), "residual_s11_axis_min_refined")])
+    numbers: dict[str, float] = {}
+    for level, quantity in common:
+        stem = REFINED_QUANTITIES.get(quantity)
+        if stem is None:
+            continue
+        change = tight[(level, quantity)] - default[(level, quantity)]
+        for suffix, size in (("largest", abs(change) / abs(default[(level, quantity)])),
+                             ("largest_absolute", abs(change)),
+                             ("largest_scaled", abs(change) / scale)):
+            if suffix == "largest_scaled" and not quantity.startswith("residual_s11_axis"):
+                continue
+            key = f"tol650_{stem}_{suffix}"
+            numbers[key] = max(numbers.get(key, 0.0), size)
+    return numbers
+
+
 #: The groups of this module: name -> (speed, function of the output folder).
 GROUPS = {"convergence_certified": ("fast", convergence_certified),
           "press_load_phases": ("fast", press_load_phases),
           "press_pressure_profile": ("fast", press_pressure_profile),
-          "press_plastic_peak": ("fast", press_plastic_peak)}
+          "press_plastic_peak": ("fast", press_plastic_peak),
+          "convergence_tolerances": ("fast", convergence_tolerances)}
