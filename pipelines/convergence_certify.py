@@ -68,7 +68,7 @@ SOURCES = {
         "convergence-650-steps6-summary.csv", "convergence-window-650.csv",
         "convergence-window-650-far.csv", "convergence-window-650-far-summary.csv"),
     "nanoindentation-190mN": Sources(
-        "convergence-shipped-summary.csv", "convergence-window-base.csv",
+        "convergence-190-steps6-summary.csv", "convergence-window-base.csv",
         "convergence-window-base-far.csv", "convergence-window-base-far-summary.csv"),
     "nanoindentation-linear-650mN": Sources(
         "convergence-shipped-summary.csv", "convergence-window-base.csv",

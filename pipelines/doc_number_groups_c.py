@@ -373,6 +373,7 @@ REFINED_TABLES = {
     "presswin": ("convergence-press-window-summary.csv", "convergence-press-window.csv"),
     "steps650five": ("convergence-650-steps5-summary.csv", "convergence-650-steps5.csv"),
     "steps650six": ("convergence-650-steps6-summary.csv", "convergence-650-steps6.csv"),
+    "steps190six": ("convergence-190-steps6-summary.csv", "convergence-190-steps6.csv"),
     "win650": ("convergence-window-650-summary.csv", "convergence-window-650.csv"),
     "winbase": ("convergence-window-base-summary.csv", "convergence-window-base.csv"),
     "presswinfar": ("convergence-press-window-far-summary.csv",
