@@ -374,6 +374,7 @@ REFINED_TABLES = {
     "steps650five": ("convergence-650-steps5-summary.csv", "convergence-650-steps5.csv"),
     "steps650six": ("convergence-650-steps6-summary.csv", "convergence-650-steps6.csv"),
     "steps190six": ("convergence-190-steps6-summary.csv", "convergence-190-steps6.csv"),
+    "stepslinsix": ("convergence-linear-steps6-summary.csv", "convergence-linear-steps6.csv"),
     "win650": ("convergence-window-650-summary.csv", "convergence-window-650.csv"),
     "winbase": ("convergence-window-base-summary.csv", "convergence-window-base.csv"),
     "presswinfar": ("convergence-press-window-far-summary.csv",
@@ -395,7 +396,8 @@ SHIPPED_CHECKS = {"shipcheck": "convergence-shipped-check.csv",
                   "shipcheck5": "convergence-shipped-check-5.csv",
                   "presssubcheck": "convergence-press-subcells-check-3.csv",
                   "presssubstresscheck": "convergence-press-subcell-stress-check-5.csv",
-                  "presssubstresscheck3": "convergence-press-subcell-stress-check-3.csv"}
+                  "presssubstresscheck3": "convergence-press-subcell-stress-check-3.csv",
+                  "lincheck6": "convergence-linear-check-6.csv"}
 #: The press's checks whose largest miss of the model over the certified quantities is quoted
 #: (``{tag}_press_largest_discrepancy``): the smeared pressure's at h = 1/3, the sub-cells'
 #: pressure's at h = 2/5 and 1/3.
