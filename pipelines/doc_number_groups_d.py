@@ -157,12 +157,11 @@ def convergence_tolerances(out: Path) -> dict[str, float]:
         stem = REFINED_QUANTITIES.get(quantity)
         if stem is None:
             continue
-        change = tight[(level, quantity)] - default[(level, quantity)]
-        for suffix, size in (("largest", abs(change) / abs(default[(level, quantity)])),
-                             ("largest_absolute", abs(change)),
-                             ("largest_scaled", abs(change) / scale)):
-            if suffix == "largest_scaled" and not quantity.startswith("residual_s11_axis"):
-                continue
+        change = abs(tight[(level, quantity)] - default[(level, quantity)])
+        sizes = {"largest": change / abs(default[(level, quantity)]), "largest_absolute": change}
+        if quantity.startswith("residual_s11_axis"):
+            sizes["largest_scaled"] = change / scale
+        for suffix, size in sizes.items():
             key = f"tol650_{stem}_{suffix}"
             numbers[key] = max(numbers.get(key, 0.0), size)
     return numbers
