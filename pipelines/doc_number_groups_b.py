@@ -487,10 +487,10 @@ GROUPS = {
     "traction_kernels": ("fast", traction_kernels),
     "iso_fatigue_finer": ("fast", iso_fatigue_finer),
     "recorded_arithmetic": ("fast", recorded_arithmetic),
-    "fatigue_stage_check": ("fast", fatigue_stage_check),
+    "fatigue_stage_check": ("slow", fatigue_stage_check),
     "case_numbers": ("fast", case_numbers),
     "dent_hydrostatic_prose": ("fast", dent_hydrostatic_prose),
     "convergence_grid": ("fast", convergence_grid),
-    "sliding_hertz": ("fast", sliding_hertz),
+    "sliding_hertz": ("slow", sliding_hertz),
     "initial_stress_von_mises": ("fast", initial_stress_von_mises),
 }

@@ -14,6 +14,11 @@ from sacflow.config.solver_inputs import simulation_for
 from sacflow.storage.case_file import load_case
 from sacflow.storage.initial_state_file import read_initial_state
 
+#: The press, the chained rolling, its twin and both fatigue stages take about 30 s: slow, so
+#: that the default suite keeps within its CI budget (``tests/test_clear_messages.py`` checks
+#: the pipeline's overrides in the default run).
+pytestmark = pytest.mark.slow
+
 PIPELINE = Path(__file__).resolve().parents[1] / "pipelines" / "dent_from_indentation.py"
 ROLLING = ["grid.nx=40", "grid.ny=40", "grid.nz=8", "load_path.1.steps=12"]
 PRESS = ["grid.nx=24", "grid.ny=24", "grid.nz=8"]

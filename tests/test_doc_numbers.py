@@ -6,7 +6,8 @@ printed, the value recorded (SI units, with its relative tolerance) and the grou
 written and show the recorded value rounded as printed, so that a doc edit changing a number
 without the table fails, and so does a table edit without the doc. The fast groups (closed forms,
 ``sacflow validate``'s Hertz numbers, a run of a few seconds) are recomputed here; the slow ones
-(the shipped cases at their shipped grids, minutes each) with ``pytest -m slow``.
+(the shipped cases at their shipped grids, minutes each, and the groups of more than about ten
+seconds, which kept the default suite past its CI budget) with ``pytest -m slow``.
 """
 
 from __future__ import annotations
