@@ -7,10 +7,11 @@ as printed, the value recorded (SI units), its tolerance, how it is obtained (a 
 script: one computation may give several numbers) and the grid. This script recomputes the
 groups and prints one JSON line per row: recorded, recomputed, whether they agree within the
 row's tolerance. ``--slow`` adds the groups that run shipped cases at their shipped grids
-(minutes each) or take more than about ten seconds; ``--groups`` recomputes only the named groups (after a change of one case);
-``--out`` keeps their runs (default: a temporary folder; finished runs are
-reused); ``--write`` stores the recomputed values in the table (review its diff, then make the
-docs quote them: ``tests/test_doc_numbers.py`` fails while a quoted number and its row disagree).
+(minutes each) or take more than about ten seconds; ``--groups`` recomputes only the named
+groups (after a change of one case); ``--out`` keeps their runs (default: a temporary folder;
+finished runs are reused); ``--write`` stores the recomputed values in the table (review its
+diff, then make the docs quote them: ``tests/test_doc_numbers.py`` fails while a quoted number
+and its row disagree).
 
 Fast groups are closed forms, ``sacflow validate``'s Hertz numbers and runs of a few seconds;
 ``tests/test_doc_numbers.py`` recomputes them in the default suite and the slow ones with
