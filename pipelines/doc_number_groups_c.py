@@ -390,14 +390,17 @@ AGAINST_LIMITS = {"presswinfar": "presswin", "win650far": "win650", "winbasefar"
 #: ``data/convergence-shipped-summary.csv`` (``{tag}_..._level{L}_together_error``).
 AGAINST_TOGETHER = ("incgrid",)
 #: Checks of ``data/convergence-shipped-summary.csv``'s `together` models at h = 1/3 and 1/5,
-#: and of the press's on sub-cells at h = 1/3 and, its body loaded by their pressure, at h = 2/5
-#: and 1/3 (``pipelines/convergence.py --check``): tag -> table.
+#: of the press's on sub-cells at h = 1/3 and, its body loaded by their pressure, at h = 2/5
+#: and 1/3, and of that press's lateral model at its first level with 4 × 4 sub-cells or 3³
+#: stress points (``pipelines/convergence.py --check``): tag -> table.
 SHIPPED_CHECKS = {"shipcheck": "convergence-shipped-check.csv",
                   "shipcheck5": "convergence-shipped-check-5.csv",
                   "presssubcheck": "convergence-press-subcells-check-3.csv",
                   "presssubstresscheck": "convergence-press-subcell-stress-check-5.csv",
                   "presssubstresscheck3": "convergence-press-subcell-stress-check-3.csv",
-                  "lincheck6": "convergence-linear-check-6.csv"}
+                  "lincheck6": "convergence-linear-check-6.csv",
+                  "presslatsub4": "convergence-press-lateral-subcells4-check-1.csv",
+                  "presslatss3": "convergence-press-lateral-sampling3-check-1.csv"}
 #: The press's checks whose largest miss of the model over the certified quantities is quoted
 #: (``{tag}_press_largest_discrepancy``): the smeared pressure's at h = 1/3, the sub-cells'
 #: pressure's at h = 2/5 and 1/3.
