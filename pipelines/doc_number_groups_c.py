@@ -392,7 +392,7 @@ AGAINST_TOGETHER = ("incgrid",)
 #: Checks of ``data/convergence-shipped-summary.csv``'s `together` models at h = 1/3 and 1/5,
 #: of the press's on sub-cells at h = 1/3 and, its body loaded by their pressure, at h = 2/5
 #: and 1/3, and of that press's lateral model at its first level with 4 × 4 sub-cells or 3³
-#: stress points (``pipelines/convergence.py --check``): tag -> table.
+#: stress points and at h = 1/3 (``pipelines/convergence.py --check``): tag -> table.
 SHIPPED_CHECKS = {"shipcheck": "convergence-shipped-check.csv",
                   "shipcheck5": "convergence-shipped-check-5.csv",
                   "presssubcheck": "convergence-press-subcells-check-3.csv",
@@ -400,7 +400,8 @@ SHIPPED_CHECKS = {"shipcheck": "convergence-shipped-check.csv",
                   "presssubstresscheck3": "convergence-press-subcell-stress-check-3.csv",
                   "lincheck6": "convergence-linear-check-6.csv",
                   "presslatsub4": "convergence-press-lateral-subcells4-check-1.csv",
-                  "presslatss3": "convergence-press-lateral-sampling3-check-1.csv"}
+                  "presslatss3": "convergence-press-lateral-sampling3-check-1.csv",
+                  "presslatcheck3": "convergence-press-subcell-stress-grid-check-3.csv"}
 #: The press's checks whose largest miss of the model over the certified quantities is quoted
 #: (``{tag}_press_largest_discrepancy``): the smeared pressure's at h = 1/3, the sub-cells'
 #: pressure's at h = 2/5 and 1/3.
@@ -509,7 +510,7 @@ def convergence_refined(out: Path) -> dict[str, float]:
         numbers[f"shipcheck5_{case}_largest_discrepancy"] = max(sizes.values())
         numbers[f"shipcheck5_{case}_largest_discrepancy_but_depth"] = max(
             v for stem, v in sizes.items() if stem != "max_eqps_refined_depth")
-    for tag in ("presssubcheck", "presssubstresscheck", "presssubstresscheck3"):
+    for tag in ("presssubcheck", "presssubstresscheck", "presssubstresscheck3", "presslatcheck3"):
         numbers[f"{tag}_press_largest_discrepancy"] = max(
             abs(numbers[key]) for stem in PRESS_CHECK_STEMS
             if (key := f"{tag}_press_{stem}_discrepancy") in numbers)
