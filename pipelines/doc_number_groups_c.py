@@ -404,7 +404,7 @@ SHIPPED_CHECKS = {"shipcheck": "convergence-shipped-check.csv",
                   "presslatcheck3": "convergence-press-subcell-stress-grid-check-3.csv"}
 #: The press's checks whose largest miss of the model over the certified quantities is quoted
 #: (``{tag}_press_largest_discrepancy``): the smeared pressure's at h = 1/3, the sub-cells'
-#: pressure's at h = 2/5 and 1/3.
+#: pressure's at h = 2/5 and 1/3, and its lateral model's at h = 1/3.
 PRESS_CHECK_STEMS = ("print_depth_refined", "peak_pressure", "max_eqps_refined",
                      "s11_min_refined", "s11_025a_refined", "s11_05a_refined", "s11_1a_refined",
                      "s11_15a_refined", "s11_2a_refined")

@@ -163,7 +163,7 @@ def extrema(profile: np.ndarray) -> int:
     return int(np.sum(np.sign(steps[1:]) != np.sign(steps[:-1])))
 
 
-@pytest.mark.slow  # three presses, 46 s; the closed-form cell means above stay in the default run
+@pytest.mark.slow  # three presses; the closed-form cell means above stay in the default run
 def test_cell_mean_removes_the_layer_to_layer_oscillation_of_the_plastic_strain():
     # centre sampling: εp on the axis alternates from layer to layer (five extrema, largest
     # εp 2.84 %); the cell mean: one peak, its value that of 16 layers within 0.5 %

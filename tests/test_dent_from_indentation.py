@@ -14,9 +14,9 @@ from sacflow.config.solver_inputs import simulation_for
 from sacflow.storage.case_file import load_case
 from sacflow.storage.initial_state_file import read_initial_state
 
-#: The press, the chained rolling, its twin and both fatigue stages take about 30 s: slow, so
-#: that the default suite keeps within its CI budget (``tests/test_clear_messages.py`` checks
-#: the pipeline's overrides in the default run).
+#: The press, the chained rolling, its twin and both fatigue stages: slow, so that the default
+#: suite keeps within its CI budget (``tests/test_clear_messages.py`` checks the pipeline's
+#: overrides in the default run).
 pytestmark = pytest.mark.slow
 
 PIPELINE = Path(__file__).resolve().parents[1] / "pipelines" / "dent_from_indentation.py"
