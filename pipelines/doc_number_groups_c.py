@@ -402,9 +402,13 @@ SHIPPED_CHECKS = {"shipcheck": "convergence-shipped-check.csv",
                   "presslatsub4": "convergence-press-lateral-subcells4-check-1.csv",
                   "presslatss3": "convergence-press-lateral-sampling3-check-1.csv",
                   "presslatcheck3": "convergence-press-subcell-stress-grid-check-3.csv"}
-#: The press's checks whose largest miss of the model over the certified quantities is quoted
-#: (``{tag}_press_largest_discrepancy``): the smeared pressure's at h = 1/3, the sub-cells'
-#: pressure's at h = 2/5 and 1/3, and its lateral model's at h = 1/3.
+#: The press's checks whose largest miss of the model over the certified quantities of
+#: :data:`PRESS_CHECK_STEMS` is quoted (``{tag}_press_largest_discrepancy``): the smeared
+#: pressure's at h = 1/3, the sub-cells' pressure's at h = 2/5 and 1/3, and its lateral model's
+#: at h = 1/3.
+PRESS_LARGEST_CHECKS = ("presssubcheck", "presssubstresscheck", "presssubstresscheck3",
+                        "presslatcheck3")
+#: The certified quantities of the press's checks.
 PRESS_CHECK_STEMS = ("print_depth_refined", "peak_pressure", "max_eqps_refined",
                      "s11_min_refined", "s11_025a_refined", "s11_05a_refined", "s11_1a_refined",
                      "s11_15a_refined", "s11_2a_refined")
@@ -510,7 +514,7 @@ def convergence_refined(out: Path) -> dict[str, float]:
         numbers[f"shipcheck5_{case}_largest_discrepancy"] = max(sizes.values())
         numbers[f"shipcheck5_{case}_largest_discrepancy_but_depth"] = max(
             v for stem, v in sizes.items() if stem != "max_eqps_refined_depth")
-    for tag in ("presssubcheck", "presssubstresscheck", "presssubstresscheck3", "presslatcheck3"):
+    for tag in PRESS_LARGEST_CHECKS:
         numbers[f"{tag}_press_largest_discrepancy"] = max(
             abs(numbers[key]) for stem in PRESS_CHECK_STEMS
             if (key := f"{tag}_press_{stem}_discrepancy") in numbers)
