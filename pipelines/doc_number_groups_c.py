@@ -340,8 +340,9 @@ def convergence_check(out: Path) -> dict[str, float]:
 #: at its shipped 96² × 128 cells, and its lateral cells and layers from there with 40 + 12;
 #: the press's lateral cells and its `together` to a fourth level, its `together`, lateral
 #: cells, layers and increments on sub-cells whose pressure loads the body (that `together` also
-#: to a fourth level), its window, the 650 mN case's window at its shipped grid and the 190 mN
-#: and linear-hardening cases' at the study's base grid).
+#: to a fourth level, those lateral cells through their finest three of four), its window, the
+#: 650 mN case's window at its shipped grid and the 190 mN and linear-hardening cases' at the
+#: study's base grid).
 REFINED_TABLES = {
     "refined": ("convergence-refined-summary.csv", "convergence-refined.csv"),
     "layers4": ("convergence-refined-layers4-summary.csv", "convergence-refined-layers4.csv"),
@@ -370,6 +371,8 @@ REFINED_TABLES = {
                      "convergence-press-subcell-stress-grid.csv"),
     "presssubinc": ("convergence-press-subcell-stress-increments-summary.csv",
                     "convergence-press-subcell-stress-increments.csv"),
+    "presslatfine": ("convergence-press-lateral-finest-summary.csv",
+                     "convergence-press-lateral-finest.csv"),
     "presswin": ("convergence-press-window-summary.csv", "convergence-press-window.csv"),
     "steps650five": ("convergence-650-steps5-summary.csv", "convergence-650-steps5.csv"),
     "steps650six": ("convergence-650-steps6-summary.csv", "convergence-650-steps6.csv"),
@@ -384,8 +387,10 @@ REFINED_TABLES = {
 }
 #: Level tables whose levels and limits are also compared with the limits of another table of
 #: the same case, sequence and quantity (the window with and without the traction beyond the
-#: box): tag -> the other tag (``{tag}_..._level{L}_against_error``, ``_limit_against_error``).
-AGAINST_LIMITS = {"presswinfar": "presswin", "win650far": "win650", "winbasefar": "winbase"}
+#: box; the press's lateral cells through their finest three and their first three): tag -> the
+#: other tag (``{tag}_..._level{L}_against_error``, ``_limit_against_error``).
+AGAINST_LIMITS = {"presswinfar": "presswin", "win650far": "win650", "winbasefar": "winbase",
+                  "presslatfine": "presssubgrid"}
 #: Level tables whose levels are also compared with the `together` limits of
 #: ``data/convergence-shipped-summary.csv`` (``{tag}_..._level{L}_together_error``).
 AGAINST_TOGETHER = ("incgrid",)
@@ -531,12 +536,12 @@ def _against_limits() -> dict[str, float]:
 
     numbers: dict[str, float] = {}
     for tag, other in AGAINST_LIMITS.items():
-        limits = {(r["case"], r["quantity"]): float(r["limit"])
+        limits = {(r["case"], r["sequence"], r["quantity"]): float(r["limit"])
                   for r in data_rows(REFINED_TABLES[other][0]) if r["limit"]}
         for table, column, suffix in ((1, "value", "level{level}"), (0, "limit", "limit")):
             for r in data_rows(REFINED_TABLES[tag][table]):
                 case, stem = CELL_MEAN_CASES.get(r["case"]), REFINED_QUANTITIES.get(r["quantity"])
-                limit = limits.get((r["case"], r["quantity"]))
+                limit = limits.get((r["case"], r["sequence"], r["quantity"]))
                 if case is None or stem is None or limit is None or not r[column]:
                     continue
                 name = suffix.format(level=r.get("level"))
