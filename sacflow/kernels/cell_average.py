@@ -9,6 +9,13 @@ cells (alternating sign along every axis) has a negative energy at aspect ratios
 ``dx/dz ≈ 1.1 … 1.6``, and a plastic problem whose hardening is smaller than that deficit has a
 spurious checkerboard solution (docs: the press of the indentation-made dent).
 
+Laterally the mean also reshapes the plastic strain: the half-space is invariant under lateral
+translation, so the mean of a cuboid's stress over the target cell's lateral extent is the
+stress at the target's centre of the cuboid's eigenstrain spread over the pyramid
+``(1 − |u1|/dx)(1 − |u2|/dx)``: the operator collocates the cell values interpolated
+bilinearly between the centres (``tests/test_cell_mean_as_bilinear_eigenstrain.py``). With
+``s`` points per axis that pyramid is a staircase of ``2 s − 1`` steps.
+
 The mean is taken with the product midpoint rule of ``sampling`` points per axis (the
 sub-cell centres ``((q + ½) / s − ½) d``, q = 0 … s − 1): symmetric about the cell centre, so
 every kernel keeps its parities, and never on a face of a cell (where the closed forms are
