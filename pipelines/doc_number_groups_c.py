@@ -391,6 +391,9 @@ REFINED_TABLES = {
 #: other tag (``{tag}_..._level{L}_against_error``, ``_limit_against_error``).
 AGAINST_LIMITS = {"presswinfar": "presswin", "win650far": "win650", "winbasefar": "winbase",
                   "presslatfine": "presssubgrid"}
+#: Sequences whose advised cells per side docs/convergence.md quotes: tag -> sequence (the
+#: press's lateral cells through their first three and their finest three levels).
+ADVISED_CELLS = {"presssubgrid": "lateral", "presslatfine": "lateral"}
 #: Level tables whose levels are also compared with the `together` limits of
 #: ``data/convergence-shipped-summary.csv`` (``{tag}_..._level{L}_together_error``).
 AGAINST_TOGETHER = ("incgrid",)
@@ -525,6 +528,27 @@ def convergence_refined(out: Path) -> dict[str, float]:
             if (key := f"{tag}_press_{stem}_discrepancy") in numbers)
     numbers.update(_against_together())
     numbers.update(_against_limits())
+    numbers.update(_advised_cells())
+    return numbers
+
+
+def _advised_cells() -> dict[str, float]:
+    """Cells per side at which each sequence of :data:`ADVISED_CELLS` puts each quantity within
+    the study's target of its limit (``pipelines/convergence.py --advise``; h = 1 is the cells
+    of the levels table's first level times its h): ``{tag}_..._advised_cells``."""
+    from sacflow.studies.convergence_table import advised_step, read_summary
+
+    numbers: dict[str, float] = {}
+    for tag, sequence in ADVISED_CELLS.items():
+        summary, levels = REFINED_TABLES[tag]
+        first = next(r for r in data_rows(levels) if r["sequence"] == sequence)
+        cells_at_unit_step = float(first["nx"]) * float(first["h"])
+        for (case_name, seq, quantity), row in read_summary(ROOT / "data" / summary).items():
+            case, stem = CELL_MEAN_CASES.get(case_name), REFINED_QUANTITIES.get(quantity)
+            step = advised_step(row)
+            if seq == sequence and case and stem and math.isfinite(step) and step > 0.0:
+                numbers[f"{tag}_{case}_{seq}_{stem}_advised_cells"] = float(
+                    math.ceil(cells_at_unit_step / step))
     return numbers
 
 
