@@ -94,6 +94,7 @@ from sacflow.studies.convergence_table import (
     SequenceResult,
     advised_step,
     check_rows,
+    count_at_step,
     level_rows,
     plot_errors,
     plot_profiles,
@@ -329,7 +330,7 @@ def level_near(sequence: Refinement, base: Discretisation, step: float) -> str:
     coarsest = sequence.level(base, 0)
 
     def at(name: str, value: int) -> int:
-        return math.ceil(value / step - 1e-9) if name in sequence.start else value
+        return count_at_step(value, step) if name in sequence.start else value
 
     increments = "+".join(str(at("increments", n)) for n in coarsest.increments)
     if "depth" in sequence.start:

@@ -536,19 +536,20 @@ def _advised_cells() -> dict[str, float]:
     """Cells per side at which each sequence of :data:`ADVISED_CELLS` puts each quantity within
     the study's target of its limit (``pipelines/convergence.py --advise``; h = 1 is the cells
     of the levels table's first level times its h): ``{tag}_..._advised_cells``."""
-    from sacflow.studies.convergence_table import advised_step, read_summary
+    from sacflow.studies.convergence_table import advised_step, count_at_step, read_summary
 
     numbers: dict[str, float] = {}
     for tag, sequence in ADVISED_CELLS.items():
         summary, levels = REFINED_TABLES[tag]
         first = next(r for r in data_rows(levels) if r["sequence"] == sequence)
-        cells_at_unit_step = float(first["nx"]) * float(first["h"])
+        # the sequence's cells at h = 1, whole; the table's h has ten digits
+        cells_at_unit_step = round(float(first["nx"]) * float(first["h"]))
         for (case_name, seq, quantity), row in read_summary(ROOT / "data" / summary).items():
             case, stem = CELL_MEAN_CASES.get(case_name), REFINED_QUANTITIES.get(quantity)
             step = advised_step(row)
             if seq == sequence and case and stem and math.isfinite(step) and step > 0.0:
                 numbers[f"{tag}_{case}_{seq}_{stem}_advised_cells"] = float(
-                    math.ceil(cells_at_unit_step / step))
+                    count_at_step(cells_at_unit_step, step))
     return numbers
 
 

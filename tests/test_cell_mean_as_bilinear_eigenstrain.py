@@ -3,9 +3,10 @@
 The half-space is invariant under lateral translation, so averaging the stress of a cell's
 uniform eigenstrain over the target cell's lateral extent, ``(1/dx²) ∫∫ K(x + t) dt``, is the
 stress at the target's centre of the cell convolved with a box of its own size: a pyramid
-``(1 − |u1|/dx)(1 − |u2|/dx)`` over the four neighbouring cells. Summed over the cells, the
-operator with the cell mean (``stress_sampling`` > 1, laterally) collocates at the centres the
-plastic strain interpolated bilinearly between them, an eigenstrain varying inside each cell.
+``(1 − |u1|/dx)(1 − |u2|/dx)`` that reaches the centres of the eight neighbouring cells.
+Summed over the cells, the operator with the cell mean (``stress_sampling`` > 1, laterally)
+collocates at the centres the plastic strain interpolated bilinearly between them, an
+eigenstrain varying inside each cell.
 docs/convergence.md uses this to read the press's runs with 2³ and 3³ stress points.
 
 Independent check: the pyramid built directly from thin cuboids (Chiu's closed form, each
@@ -25,7 +26,7 @@ MU = E / (2 * (1 + NU))
 #: Lateral cell size and layer thickness [m] (the aspect ratio of the shipped grids' cells).
 DX, DZ = 2e-6, 1e-6
 #: Quadrature levels: (target points per axis of the cell mean, thin cuboids per axis of the
-#: pyramid). The thin cuboids are an odd number so that no target lies inside one's face.
+#: pyramid). The thin cuboids are an odd number so that no target lies on one's face.
 COARSE, FINE = (8, 11), (32, 41)
 
 

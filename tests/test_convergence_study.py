@@ -41,6 +41,7 @@ from sacflow.studies.convergence_table import (
     LEVEL_COLUMNS,
     SUMMARY_COLUMNS,
     check_rows,
+    count_at_step,
 )
 from sacflow.studies.richardson import (
     GCI_SAFETY_FACTOR,
@@ -518,3 +519,11 @@ def test_the_edge_script_solves_the_contact_on_sub_cells_when_asked(tmp_path):
     with pytest.raises(SystemExit, match="solver.contact_subcells"):
         module.main(["--runs", "26:3.0", "--subcells", "5", "--table", str(tmp_path / "x.csv")])
     assert not (tmp_path / "x.csv").exists()
+
+
+def test_a_refined_count_rounds_up_but_not_past_a_whole_quotient():
+    # 15 / (3/11) and 21 / (7/10) come out a hair above 55 and 30 in floats: those, not 56, 31
+    assert count_at_step(15, 3 / 11) == 55
+    assert count_at_step(21, 7 / 10) == 30
+    assert count_at_step(48, 0.311) == 155  # 154.3, rounded up
+    assert count_at_step(24, 1.0) == 24

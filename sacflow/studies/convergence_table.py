@@ -49,6 +49,7 @@ __all__ = [
     "add_table_arguments",
     "advised_step",
     "check_rows",
+    "count_at_step",
     "level_rows",
     "model_check",
     "plot_errors",
@@ -227,6 +228,10 @@ def finest_step(row: Mapping[str, Any]) -> float:
     return float(row["ratio"]) ** -(float(row["levels"]) - 1.0)
 
 
+#: Slack below which a refined count's quotient is taken as whole (:func:`count_at_step`).
+ROUNDING_SLACK = 1e-9
+
+
 def advised_step(row: Mapping[str, Any], target: float = TARGET_ERROR) -> float:
     """Step at which a summary row's model f∞ + C hᵖ is within ``target`` of its limit.
 
@@ -235,6 +240,15 @@ def advised_step(row: Mapping[str, Any], target: float = TARGET_ERROR) -> float:
     """
     return step_for_error(float(row["finest_value"]), float(row["limit"]), float(row["order"]),
                           finest_step(row), target)
+
+
+def count_at_step(count_at_unit_step: float, step: float) -> int:
+    """Return a refined count (cells, layers, increments) at ``step``: count / step, rounded up.
+
+    ``count_at_unit_step`` is the count at h = 1; a quotient within 1e-9 above a whole number
+    (a float step such as 2/3) is that number, not the next.
+    """
+    return math.ceil(count_at_unit_step / step - ROUNDING_SLACK)
 
 
 def model_check(fit: Mapping[str, Any], value: float, step: float) -> tuple[float, float, float]:
