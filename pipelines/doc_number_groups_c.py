@@ -399,8 +399,9 @@ ADVISED_CELLS = {"presssubgrid": "lateral", "presslatfine": "lateral"}
 AGAINST_TOGETHER = ("incgrid",)
 #: Checks of ``data/convergence-shipped-summary.csv``'s `together` models at h = 1/3 and 1/5,
 #: of the press's on sub-cells at h = 1/3 and, its body loaded by their pressure, at h = 2/5
-#: and 1/3, and of that press's lateral model at its first level with 4 × 4 sub-cells or 3³
-#: stress points and at h = 1/3 (``pipelines/convergence.py --check``): tag -> table.
+#: and 1/3, and of that press's lateral model at its first level with 4 × 4 sub-cells, 3³
+#: stress points or 49² cells (the load axis on a cell's centre) and at h = 1/3
+#: (``pipelines/convergence.py --check``): tag -> table.
 SHIPPED_CHECKS = {"shipcheck": "convergence-shipped-check.csv",
                   "shipcheck5": "convergence-shipped-check-5.csv",
                   "presssubcheck": "convergence-press-subcells-check-3.csv",
@@ -409,6 +410,7 @@ SHIPPED_CHECKS = {"shipcheck": "convergence-shipped-check.csv",
                   "lincheck6": "convergence-linear-check-6.csv",
                   "presslatsub4": "convergence-press-lateral-subcells4-check-1.csv",
                   "presslatss3": "convergence-press-lateral-sampling3-check-1.csv",
+                  "presslatodd49": "convergence-press-lateral-odd49-check-1.csv",
                   "presslatcheck3": "convergence-press-subcell-stress-grid-check-3.csv"}
 #: The press's checks whose largest miss of the model over the certified quantities of
 #: :data:`PRESS_CHECK_STEMS` is quoted (``{tag}_press_largest_discrepancy``): the smeared
