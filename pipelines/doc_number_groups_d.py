@@ -5,7 +5,9 @@ for the press's increments split between the halves of its load
 (``data/press-load-phases.csv``, written by ``pipelines/press_load_phases.py``), and for its
 pressure at the peak load on sub-cells (``data/press-pressure-profile.csv`` and ``-rows.csv``,
 written by ``pipelines/press_pressure_profile.py``), and for the shape of its largest εp
-(``data/press-plastic-peak.csv``, written by ``pipelines/press_plastic_peak.py``), and for the
+(``data/press-plastic-peak.csv``, written by ``pipelines/press_plastic_peak.py``), and for where
+its lateral cells' error lies (``data/press-lateral-error-split-*.csv``, written by
+``pipelines/press_lateral_error_split.py``), and for the
 solver's tolerances' share of the 650 mN `together` levels' changes
 (``data/convergence-650-tolerances.csv`` against ``data/convergence-650-steps6.csv``).
 
@@ -137,6 +139,55 @@ def press_plastic_peak(out: Path) -> dict[str, float]:
             for r in data_rows("press-plastic-peak.csv")}
 
 
+#: The press's lateral refinements split (``pipelines/press_lateral_error_split.py``): the
+#: coarse and fine cells per side of each table ``data/press-lateral-error-split-{c}-{f}.csv``.
+SPLIT_PAIRS = ((48, 96), (48, 144), (72, 144))
+
+
+def press_lateral_error_split(out: Path) -> dict[str, float]:
+    """Per table of :data:`SPLIT_PAIRS` (``split_{c}_{f}_...``) and profile depth: the σ11 on
+    the axis of each run, their difference (``_change_``) and each part of it
+    (``_{part}_{depth}``, depth as ``05a``); per region ``r{from}_{to}_z{from}_{to}`` (Hertz
+    radii, ``inf`` unbounded) its flow part, its εp change summed over its volume, the change
+    of largest magnitude and the coarse εp there; and the same summed or largest over the
+    bands of :func:`_split_bands` (``_core_...``, ``_edge_...``)."""
+    numbers: dict[str, float] = {}
+    for coarse, fine in SPLIT_PAIRS:
+        name = f"press-lateral-error-split-{coarse}-{fine}.csv"
+        key = f"split_{coarse}_{fine}"
+        for r in data_rows(name):
+            profile = {c.removeprefix("s11_at_").replace(".", ""): float(v)
+                       for c, v in r.items() if c.startswith("s11_at_") and v}
+            if r["part"] != "flow_region":
+                numbers.update({f"{key}_{r['part']}_{d}": v for d, v in profile.items()})
+                if r["part"] == "fine":
+                    numbers.update({f"{key}_change_{d}": v - numbers[f"{key}_coarse_{d}"]
+                                    for d, v in profile.items()})
+                continue
+            bounds = [f"{float(r[c]):g}" for c in ("r_from", "r_to", "z_from", "z_to")]
+            region = "r{}_{}_z{}_{}".format(*bounds).replace(".", "")
+            numbers.update({f"{key}_{region}_{d}": v for d, v in profile.items()})
+            for column in ("strain_change_volume", "largest_strain_change", "strain_there"):
+                numbers[f"{key}_{region}_{column}"] = float(r[column])
+            for band, inside in _split_bands(r).items():
+                if not inside:
+                    continue
+                for d, v in profile.items():
+                    numbers[f"{key}_{band}_{d}"] = numbers.get(f"{key}_{band}_{d}", 0.0) + v
+                name = f"{key}_{band}_largest_strain_change"
+                if abs(float(r["largest_strain_change"])) > abs(numbers.get(name, 0.0)):
+                    numbers[name] = float(r["largest_strain_change"])
+                    numbers[f"{key}_{band}_strain_there"] = float(r["strain_there"])
+    return numbers
+
+
+def _split_bands(row: dict[str, str]) -> dict[str, bool]:
+    """Whether a region of the split lies under the axis (``core``: r < 0.5 a, every depth) or
+    in the surface band at the contact's edge (``edge``: a ≤ r < 1.5 a, x3 < 0.25 a)."""
+    r_from, r_to, z_to = (float(row[c]) for c in ("r_from", "r_to", "z_to"))
+    return {"core": r_to <= 0.5, "edge": r_from >= 1.0 and r_to <= 1.5 and z_to <= 0.25}
+
+
 #: The 650 mN `together` levels with tight tolerances, and the same levels with the defaults.
 TOLERANCE_TABLES = ("convergence-650-tolerances.csv", "convergence-650-steps6.csv")
 
@@ -172,4 +223,5 @@ GROUPS = {"convergence_certified": ("fast", convergence_certified),
           "press_load_phases": ("fast", press_load_phases),
           "press_pressure_profile": ("fast", press_pressure_profile),
           "press_plastic_peak": ("fast", press_plastic_peak),
+          "press_lateral_error_split": ("fast", press_lateral_error_split),
           "convergence_tolerances": ("fast", convergence_tolerances)}
