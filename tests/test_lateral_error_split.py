@@ -92,11 +92,12 @@ def test_regions_must_cover_every_cell_once() -> None:
         regions_of(coords(N), (0.0, 0.0), LENGTH, (*REGIONS, Region(0.0, 0.5, 0.0, 1.0)))
 
 
-def press(n: int):
+def press(n: int, overrides: tuple[str, ...] = ()):
     """The press's case on ``n × n × NZ`` cells, and its lattice (x1, x2, x3)."""
     text = (ROOT / "pipelines" / "dent-from-indentation-press.toml").read_text()
     case = validate_case(apply_overrides(tomllib.loads(text), [
-        f"grid.nx={n}", f"grid.ny={n}", f"grid.nz={NZ}", "solver.traction_beyond_box=false"]))
+        f"grid.nx={n}", f"grid.ny={n}", f"grid.nz={NZ}", "solver.traction_beyond_box=false",
+        *overrides]))
     dx, dz = case.cell_size()[0], box_depth(case) / NZ
     return case, (centres(n, dx), centres(n, dx), centres(NZ, dz, surface=True))
 
@@ -108,12 +109,14 @@ def operator_for(n: int, sampling: int = 2) -> HalfSpaceEigenstrain:
     return HalfSpaceEigenstrain((n, n, NZ), spacing, E, NU, threads=1, stress_sampling=sampling)
 
 
-def run_file(path: Path, n: int, operator: HalfSpaceEigenstrain, area: bool = True) -> None:
+def run_file(path: Path, n: int, operator: HalfSpaceEigenstrain, area: bool = True,
+             overrides: tuple[str, ...] = ()) -> None:
     """A run file of the press on ``n × n × NZ`` cells: a plastic strain at its last step,
-    ``operator``'s stress of it and (``area``) the contact area of a radius of 150 µm."""
+    ``operator``'s stress of it and (``area``) the contact area of a radius of 150 µm; its case
+    with ``overrides``."""
     import xarray as xr
 
-    case, lattice = press(n)
+    case, lattice = press(n, overrides)
     eps = strain(n, lattice)
     stress = operator.residual_stress(eps)
     dims = ("step", "x1", "x2", "x3", "component")
@@ -163,7 +166,7 @@ def test_the_script_splits_two_runs_and_never_replaces_a_table(tmp_path) -> None
     assert plot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
-def test_the_script_refuses_a_run_whose_stress_is_not_its_operators(tmp_path, capsys) -> None:
+def test_the_script_refuses_runs_it_cannot_split(tmp_path, capsys) -> None:
     module = _script()
     other, fine = tmp_path / "other.nc", tmp_path / "f.nc"
     run_file(other, PRESS_N, operator_for(PRESS_N, sampling=1))  # the case says 2
@@ -172,6 +175,13 @@ def test_the_script_refuses_a_run_whose_stress_is_not_its_operators(tmp_path, ca
     assert "rebuilt operator misses" in capsys.readouterr().err
     assert module.main([str(tmp_path / "missing.nc"), str(fine)]) == 1
     assert "no run at" in capsys.readouterr().err
+    coarse, other_case = tmp_path / "c.nc", tmp_path / "other-case.nc"
+    run_file(coarse, PRESS_N, operator_for(PRESS_N))
+    run_file(other_case, 2 * PRESS_N, operator_for(2 * PRESS_N),
+             overrides=("solver.contact_subcells=4",))
+    assert module.main([str(coarse), str(other_case)]) == 1
+    assert "differ in more than their lateral cells: solver.contact_subcells;" in (
+        capsys.readouterr().err)
     no_area = tmp_path / "no-area.nc"
     run_file(no_area, PRESS_N, operator_for(PRESS_N), area=False)
     assert module.main([str(no_area), str(fine), "--plot", str(tmp_path / "p.png")]) == 1
