@@ -5,10 +5,10 @@
 
 COARSE.nc and FINE.nc are finished runs of one case whose lateral cells differ by a whole
 ratio (FINE's cells divide each of COARSE's into r × r; their cases may differ in ``grid.nx``
-and ``grid.ny`` only, which is checked), each storing its last step's volume fields, e.g. the press of the
-indentation-made dent run with ``--set grid.nx=48 --set grid.ny=48`` and with 96. The
-difference of their residual σ11 on the load axis at the convergence study's profile depths is
-split exactly (:mod:`sacflow.studies.lateral_error_split`) into a *flow* part (the coarse
+and ``grid.ny`` only, which is checked), each storing its last step's volume fields, e.g. the
+press of the indentation-made dent run with ``--set grid.nx=48 --set grid.ny=48`` and with 96.
+The difference of their residual σ11 on the load axis at the convergence study's profile depths
+is split exactly (:mod:`sacflow.studies.lateral_error_split`) into a *flow* part (the coarse
 operator applied to the fine run's plastic strain averaged over each coarse cell minus the
 coarse run's own), itself a sum over regions of the body (radius and depth bands in Hertz
 radii), and a *representation* part (the same strain on fine or coarse cuboids). Each region's
