@@ -139,22 +139,23 @@ def press_plastic_peak(out: Path) -> dict[str, float]:
             for r in data_rows("press-plastic-peak.csv")}
 
 
-#: The press's lateral refinements split (``pipelines/press_lateral_error_split.py``): the
-#: coarse and fine cells per side of each table ``data/press-lateral-error-split-{c}-{f}.csv``.
-SPLIT_PAIRS = ((48, 96), (48, 144), (72, 144))
+#: The press's lateral refinements split (``pipelines/press_lateral_error_split.py``): key ->
+#: table (the coarse and fine cells per side; ``inc40``: with 40 + 12 increments).
+SPLIT_TABLES = {"48_96": "press-lateral-error-split-48-96.csv",
+                "48_144": "press-lateral-error-split-48-144.csv",
+                "72_144": "press-lateral-error-split-72-144.csv"}
 
 
 def press_lateral_error_split(out: Path) -> dict[str, float]:
-    """Per table of :data:`SPLIT_PAIRS` (``split_{c}_{f}_...``) and profile depth: the σ11 on
+    """Per table of :data:`SPLIT_TABLES` (``split_{key}_...``) and profile depth: the σ11 on
     the axis of each run, their difference (``_change_``) and each part of it
     (``_{part}_{depth}``, depth as ``05a``); per region ``r{from}_{to}_z{from}_{to}`` (Hertz
     radii, ``inf`` unbounded) its flow part, its εp change summed over its volume, the change
     of largest magnitude and the coarse εp there; and the same summed or largest over the
     bands of :func:`_split_bands` (``_core_...``, ``_edge_...``)."""
     numbers: dict[str, float] = {}
-    for coarse, fine in SPLIT_PAIRS:
-        name = f"press-lateral-error-split-{coarse}-{fine}.csv"
-        key = f"split_{coarse}_{fine}"
+    for tag, name in SPLIT_TABLES.items():
+        key = f"split_{tag}"
         for r in data_rows(name):
             profile = {c.removeprefix("s11_at_").replace(".", ""): float(v)
                        for c, v in r.items() if c.startswith("s11_at_") and v}
