@@ -4,9 +4,10 @@
 [--overwrite]``
 
 COARSE.nc and FINE.nc are finished runs of one case whose lateral cells differ by a whole
-ratio (FINE's cells divide each of COARSE's into r × r; their cases may differ in ``grid.nx``
-and ``grid.ny`` only, which is checked), each storing its last step's volume fields, e.g. the
-press of the indentation-made dent run with ``--set grid.nx=48 --set grid.ny=48`` and with 96.
+ratio (FINE's cells divide each of COARSE's into r × r, r = 1 included) and whose increments may
+differ too (their cases may differ in ``grid.nx``, ``grid.ny``, the load path's increments and
+the output only, which is checked), each storing its last step's volume fields, e.g. the press
+of the indentation-made dent run with ``--set grid.nx=48 --set grid.ny=48`` and with 96.
 The difference of their residual σ11 on the load axis at the convergence study's profile depths
 is split exactly (:mod:`sacflow.studies.lateral_error_split`) into a *flow* part (the coarse
 operator applied to the fine run's plastic strain averaged over each coarse cell minus the
@@ -21,6 +22,7 @@ exists, unless ``--overwrite``).
 from __future__ import annotations
 
 import argparse
+import fnmatch
 import json
 import math
 import sys
@@ -58,8 +60,9 @@ NEEDED = ("plastic_strain", "residual_stress", "equivalent_plastic_strain")
 PROFILE = tuple(f"s11_at_{d:g}a" for d in PROFILE_DEPTHS)
 COLUMNS = ("part", "r_from", "r_to", "z_from", "z_to", "strain_change_volume",
            "largest_strain_change", "strain_there", *PROFILE)
-#: The case fields the two runs may differ in: their lateral cells.
-LATERAL = frozenset({"grid.nx", "grid.ny"})
+#: The case fields two runs may differ in (shell patterns): their lateral cells, the increments
+#: of their load path and what they store.
+FREE = ("grid.nx", "grid.ny", "load_path.*.increments", "output.*")
 #: Largest relative miss of the rebuilt operator on the coarse run's own stress: above it the
 #: operator is not the run's (other solver settings) and the split would be wrong.
 OPERATOR_MISS = 1e-9
@@ -98,22 +101,27 @@ def operator_of(run: dict[str, Any]) -> HalfSpaceEigenstrain:
     return op
 
 
-def differences(coarse: Any, fine: Any, prefix: str = "") -> list[str]:
-    """The dotted fields in which two case dumps differ, the lateral cells left out."""
+def differences(coarse: Any, fine: Any, path: str = "") -> list[str]:
+    """The dotted fields in which two case dumps differ, those of :data:`FREE` left out."""
     if isinstance(coarse, dict) and isinstance(fine, dict):
-        return [name for key in sorted(set(coarse) | set(fine))
-                if f"{prefix}{key}" not in LATERAL
-                for name in differences(coarse.get(key), fine.get(key), f"{prefix}{key}.")]
-    return [] if coarse == fine else [prefix.rstrip(".")]
+        pairs = [(str(k), coarse.get(k), fine.get(k)) for k in sorted(set(coarse) | set(fine))]
+    elif (isinstance(coarse, list | tuple) and isinstance(fine, list | tuple)
+          and len(coarse) == len(fine)):
+        pairs = [(str(i), c, f) for i, (c, f) in enumerate(zip(coarse, fine, strict=True))]
+    else:
+        free = coarse == fine or any(fnmatch.fnmatchcase(path, p) for p in FREE)
+        return [] if free else [path]
+    return [name for key, c, f in pairs
+            for name in differences(c, f, f"{path}.{key}" if path else key)]
 
 
 def rows_of(coarse: dict[str, Any], fine: dict[str, Any]) -> list[dict[str, Any]]:
     """The table's rows for the two runs (as :func:`read_run` returns them)."""
     other = differences(coarse["case"].model_dump(), fine["case"].model_dump())
     if other:
-        raise SacflowError("the two runs differ in more than their lateral cells: "
-                           f"{', '.join(other)}; run the fine one with the coarse one's case "
-                           "and only grid.nx and grid.ny changed")
+        raise SacflowError("the two runs differ in more than their lateral cells and "
+                           f"increments: {', '.join(other)}; run the fine one with the coarse "
+                           "one's case and only grid.nx, grid.ny or the increments changed")
     length = coarse["case"].hertz().a
     operator = operator_of(coarse).residual_stress
     result = split((coarse["plastic_strain"], coarse["residual_stress"]),

@@ -180,8 +180,12 @@ def test_the_script_refuses_runs_it_cannot_split(tmp_path, capsys) -> None:
     run_file(other_case, 2 * PRESS_N, operator_for(2 * PRESS_N),
              overrides=("solver.contact_subcells=4",))
     assert module.main([str(coarse), str(other_case)]) == 1
-    assert "differ in more than their lateral cells: solver.contact_subcells;" in (
-        capsys.readouterr().err)
+    assert "lateral cells and increments: solver.contact_subcells;" in capsys.readouterr().err
+    # Runs that differ in their increments (and what they store) only are split on one lattice.
+    more_increments = tmp_path / "more-increments.nc"
+    run_file(more_increments, PRESS_N, operator_for(PRESS_N),
+             overrides=("load_path.0.increments=40", "output.volume_every=52"))
+    assert module.main([str(coarse), str(more_increments)]) == 0
     no_area = tmp_path / "no-area.nc"
     run_file(no_area, PRESS_N, operator_for(PRESS_N), area=False)
     assert module.main([str(no_area), str(fine), "--plot", str(tmp_path / "p.png")]) == 1
