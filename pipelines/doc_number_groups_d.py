@@ -140,10 +140,14 @@ def press_plastic_peak(out: Path) -> dict[str, float]:
 
 
 #: The press's lateral refinements split (``pipelines/press_lateral_error_split.py``): key ->
-#: table (the coarse and fine cells per side; ``inc40``: with 40 + 12 increments).
+#: table (the coarse and fine cells per side; ``inc40``: with 40 + 12 increments; ``inc_N``:
+#: 20 + 6 against 40 + 12 increments on N² cells).
 SPLIT_TABLES = {"48_96": "press-lateral-error-split-48-96.csv",
                 "48_144": "press-lateral-error-split-48-144.csv",
-                "72_144": "press-lateral-error-split-72-144.csv"}
+                "72_144": "press-lateral-error-split-72-144.csv",
+                "48_96_inc40": "press-lateral-error-split-48-96-inc40.csv",
+                "inc_48": "press-increments-error-split-48.csv",
+                "inc_96": "press-increments-error-split-96.csv"}
 
 
 def press_lateral_error_split(out: Path) -> dict[str, float]:
