@@ -31,6 +31,8 @@ from typing import Any
 
 import numpy as np
 
+from sacflow.config.case import Case
+from sacflow.config.dotted import flatten
 from sacflow.config.parsing import validate_case
 from sacflow.errors import SacflowError
 from sacflow.kernels.eigenstrain import HalfSpaceEigenstrain
@@ -101,23 +103,22 @@ def operator_of(run: dict[str, Any]) -> HalfSpaceEigenstrain:
     return op
 
 
-def differences(coarse: Any, fine: Any, path: str = "") -> list[str]:
-    """The dotted fields in which two case dumps differ, those of :data:`FREE` left out."""
-    if isinstance(coarse, dict) and isinstance(fine, dict):
-        pairs = [(str(k), coarse.get(k), fine.get(k)) for k in sorted(set(coarse) | set(fine))]
-    elif (isinstance(coarse, list | tuple) and isinstance(fine, list | tuple)
-          and len(coarse) == len(fine)):
-        pairs = [(str(i), c, f) for i, (c, f) in enumerate(zip(coarse, fine, strict=True))]
-    else:
-        free = coarse == fine or any(fnmatch.fnmatchcase(path, p) for p in FREE)
-        return [] if free else [path]
-    return [name for key, c, f in pairs
-            for name in differences(c, f, f"{path}.{key}" if path else key)]
+def differences(coarse: Case, fine: Case) -> list[str]:
+    """The dotted fields in which two cases' identities differ, those of :data:`FREE` left out.
+
+    The identity (:meth:`~sacflow.config.case.Case.identity`) leaves out what changes no number
+    (the name, the threads); :func:`~sacflow.config.dotted.flatten` lists every field by path.
+    """
+    a, b = flatten(coarse.identity()), flatten(fine.identity())
+    absent = object()
+    return [path for path in sorted(a.keys() | b.keys())
+            if a.get(path, absent) != b.get(path, absent)
+            and not any(fnmatch.fnmatchcase(path, pattern) for pattern in FREE)]
 
 
 def rows_of(coarse: dict[str, Any], fine: dict[str, Any]) -> list[dict[str, Any]]:
     """The table's rows for the two runs (as :func:`read_run` returns them)."""
-    other = differences(coarse["case"].model_dump(), fine["case"].model_dump())
+    other = differences(coarse["case"], fine["case"])
     if other:
         raise SacflowError("the two runs differ in more than their lateral cells and "
                            f"increments: {', '.join(other)}; run the fine one with the coarse "

@@ -9,6 +9,7 @@ map is taken in the layer of the extreme residual stress.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from typing import Any, Literal
 
@@ -28,7 +29,7 @@ from sacflow.compare.core import (
 )
 from sacflow.solver.state import COMPONENTS
 
-__all__ = ["indentation", "quadratic_at", "refined_peak", "residual_map"]
+__all__ = ["column_at", "indentation", "quadratic_at", "refined_peak", "residual_map"]
 
 #: Points of the Lagrange interpolation of :func:`quadratic_at` along each axis.
 QUADRATIC_POINTS = 3
@@ -117,6 +118,16 @@ def quadratic_at(values: np.ndarray, coords: Sequence[np.ndarray],
                                      for m in range(count) if m != k]) for k in range(count)])
         out = np.tensordot(weights, out[first:first + count], axes=(0, 0))
     return out
+
+
+def column_at(column: np.ndarray, x3: np.ndarray, depths: Sequence[float]) -> list[float]:
+    """Values of a layer-centred column at ``depths`` [m] by :func:`quadratic_at` along depth.
+
+    NaN above the first layer centre or below the last (no extrapolation): how the convergence
+    study reads the residual σ11 profile on the load axis.
+    """
+    return [float(quadratic_at(column, (x3,), (z,))) if x3[0] <= z <= x3[-1] else math.nan
+            for z in depths]
 
 
 def _argext(field: xr.DataArray, fn) -> tuple[float, dict[str, float]]:

@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from sacflow.compare.fields import quadratic_at, refined_peak
+from sacflow.compare.fields import column_at, quadratic_at, refined_peak
 from sacflow.config.schema import Case, Elastic
 from sacflow.config.solver_inputs import solver_inputs
 from sacflow.errors import SacflowError
@@ -430,13 +430,13 @@ def measure(sim: Simulation, states: Sequence[State], contact_radius: float
     load_point = (states[top].load_x1, states[top].load_x2)
     on_axis = quadratic_at(stress[..., I11], (x1, x2), load_point)
     out["residual_s11_axis_min_refined"] = -refined_peak(-on_axis, (x3,))[0]
-    for depth in PROFILE_DEPTHS:
-        z = depth * contact_radius
+    points = [depth * contact_radius for depth in PROFILE_DEPTHS]
+    for depth, z, refined_s11 in zip(PROFILE_DEPTHS, points, column_at(on_axis, x3, points),
+                                     strict=True):
         inside = x3[0] <= z <= x3[-1]
         out[f"residual_s11_axis_at_{depth:g}a"] = (float(np.interp(z, x3, axis_s11)) if inside
                                                    else math.nan)
-        out[f"residual_s11_axis_refined_at_{depth:g}a"] = (
-            float(quadratic_at(on_axis, (x3,), (z,))) if inside else math.nan)
+        out[f"residual_s11_axis_refined_at_{depth:g}a"] = refined_s11
     out.update(top_layer_quantities(stress, i, j))
     return out, {"x3": [float(z) for z in x3], "residual_s11": [float(s) for s in axis_s11]}
 

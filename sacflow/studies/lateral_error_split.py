@@ -1,7 +1,8 @@
 """Where the lateral cells' error of the residual σ11 on the load axis comes from.
 
-Two runs of one case differ only in their lateral cells: a coarse lattice and a fine one whose
-cells divide each coarse cell into ``r × r`` (same window, layers and increments). The residual
+Two runs of one case differ in their lateral cells, a coarse lattice and a fine one whose cells
+divide each coarse cell into ``r × r`` (same window and layers), or in their increments on one
+lattice (``r = 1``: one operator, so no representation part). The residual
 stress after unloading is a linear functional of the plastic strain (seed eq. 1.17:
 σʳ = Σ_cells K·εp), so the difference of the σ11 on the axis between the runs splits exactly
 into
@@ -20,14 +21,13 @@ loading changes the flow elsewhere, and the split sees that change where it land
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from sacflow.compare.fields import quadratic_at
+from sacflow.compare.fields import column_at, quadratic_at
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -84,13 +84,12 @@ def axis_s11(stress: np.ndarray, coords: Sequence[np.ndarray], axis: tuple[float
     """σ11 on the vertical line through ``axis`` at ``depths`` [m], keyed by depth.
 
     NaN below the deepest layer centre or above the first. The column is interpolated to the
-    axis and along depth by the tensor-product parabolas of
-    :func:`~sacflow.compare.fields.quadratic_at` (as the convergence study reads its profile).
+    axis by :func:`~sacflow.compare.fields.quadratic_at` and along depth by
+    :func:`~sacflow.compare.fields.column_at`, as the convergence study reads its profile.
     """
     x1, x2, x3 = coords
     column = quadratic_at(stress[..., S11], (x1, x2), axis)
-    return {float(z): float(quadratic_at(column, (x3,), (float(z),))) if x3[0] <= z <= x3[-1]
-            else math.nan for z in depths}
+    return dict(zip((float(z) for z in depths), column_at(column, x3, depths), strict=True))
 
 
 def regions_of(coords: Sequence[np.ndarray], axis: tuple[float, float], length: float,
