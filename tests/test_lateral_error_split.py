@@ -83,6 +83,9 @@ def test_a_change_in_one_region_is_attributed_to_it_alone(operators) -> None:
         assert result.flow[depth] + result.representation[depth] == pytest.approx(
             result.fine[depth] - result.coarse[depth], rel=1e-12, abs=1e-12 * scale)
     assert math.isnan(result.coarse[2.5])  # below the deepest layer centre
+    with pytest.raises(ValueError, match="give the coarse run first"):  # the runs swapped
+        split((eps_f, eps_f), (eps_c, eps_c), operators[N].residual_stress,
+              (coords(2 * N), coords(N)), (0.0, 0.0), LENGTH, DEPTHS, REGIONS)
 
 
 def test_regions_must_cover_every_cell_once() -> None:

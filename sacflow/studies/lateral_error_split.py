@@ -138,11 +138,14 @@ def split(coarse: tuple[np.ndarray, np.ndarray], fine: tuple[np.ndarray, np.ndar
     """
     eps_c, stress_c = coarse
     eps_f, stress_f = fine
-    ratio = eps_f.shape[0] // eps_c.shape[0]
+    (c1, c2, c3), (f1, f2, f3) = eps_c.shape[:3], eps_f.shape[:3]
+    ratio = f1 // c1
+    if ratio < 1 or (f1, f2, f3) != (ratio * c1, ratio * c2, c3):
+        raise ValueError(f"the fine run's {f1} x {f2} x {f3} cells are not the coarse run's "
+                         f"{c1} x {c2} x {c3} with each lateral cell divided into r x r: give "
+                         "the coarse run first, and runs whose cells per side are a whole "
+                         "multiple of each other with the same layers")
     averaged = block_average(eps_f, ratio)
-    if averaged.shape != eps_c.shape:
-        raise ValueError(f"the fine lattice {eps_f.shape[:3]} does not refine the coarse "
-                         f"{eps_c.shape[:3]} laterally only")
     points = [d * length for d in depths]
 
     def profile(stress: np.ndarray, lattice: Sequence[np.ndarray]) -> dict[float, float]:
