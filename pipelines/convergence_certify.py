@@ -24,12 +24,15 @@ from pathlib import Path
 from sacflow.errors import SacflowError
 from sacflow.studies.certify import (
     CERTIFIED_COLUMNS,
+    DEPTH_TOLERANCE,
     Certificate,
     certify,
+    level_discretisation,
     level_values,
     plot_certificates,
     transfer,
 )
+from sacflow.studies.convergence import STUDY_CASES, base_case, shipped_discretisation
 from sacflow.studies.convergence_table import read_summary, write_csv, write_figure
 
 DATA = Path(__file__).resolve().parents[1] / "data"
@@ -44,12 +47,17 @@ class Sources:
     ``window_far`` the window sequence's levels tables without and with the traction beyond the
     box (and ``window``'s summary, the same name with ``-summary``); ``shipped_far`` the
     summary whose ``shipped_value`` is the shipped discretisation with it.
+    ``shipped_off``, when given, is the levels table, sequence and level that ran the shipped
+    discretisation without the traction beyond the box, for a config whose discretisation
+    changed after its `together` summary recorded its ``shipped_value``; that level must then
+    be the config's grid and increments (:func:`shipped_off_values`).
     """
 
     together: str
     window: str
     window_far: str
     shipped_far: str
+    shipped_off: tuple[str, str, int] | None = None
 
     def window_summary(self) -> str:
         """The window levels table's summary."""
@@ -62,7 +70,10 @@ class Sources:
 #: its contact on sub-cells whose pressure loads the body, as it ships, to a fourth level and
 #: extrapolated through the finest three; its window sequence ran
 #: on the cells, and the transfer (:func:`sacflow.studies.certify.transfer`) carries what that
-#: changes.
+#: changes. The press ships 40 + 12 increments since its `together` summary recorded its
+#: shipped value with 20 + 6: its shipped value without the traction beyond the box is the
+#: increments sequence's level at 40 + 12 on its shipped grid (the same discretisation), and its
+#: shipped value with that traction a run of the config as it ships.
 SOURCES = {
     "nanoindentation-650mN": Sources(
         "convergence-650-steps6-summary.csv", "convergence-window-650.csv",
@@ -76,7 +87,8 @@ SOURCES = {
     "dent-from-indentation-press": Sources(
         "convergence-press-subcell-stress4-summary.csv", "convergence-press-window.csv",
         "convergence-press-window-far.csv",
-        "convergence-press-shipped-subcell-stress-far-summary.csv"),
+        "convergence-press-shipped-increments40-far-summary.csv",
+        ("convergence-press-subcell-stress-increments.csv", "increments", 2)),
 }
 #: The quantities certified: the issue's (the approach at the peak load, the print depth, the
 #: largest εp and its depth, the minimum residual σ11 on the axis and its profile, the peak
@@ -96,6 +108,73 @@ QUANTITIES = (
 PROFILE, PROFILE_SCALE = "residual_s11_axis_refined_at_", "residual_s11_axis_min_refined"
 
 
+def shipped_off_values(case: str, source: tuple[str, str, int],
+                       data: Path = DATA) -> dict[str, float]:
+    """Return the quantities of the level ``source`` names, checked to be ``case`` as it ships.
+
+    Raises
+    ------
+    SacflowError
+        When the level's cells, layers, box depth or increments are not those of the case's
+        config (the config changed again after that level ran).
+    """
+    table, sequence, level = source
+    path = data / table
+    shipped = shipped_discretisation(base_case(STUDY_CASES[case]))
+    ran = level_discretisation(path, case, sequence, level)
+    wanted = (shipped.nx, shipped.nz, shipped.total_increments)
+    if ran[:3] != wanted or not math.isclose(ran[3], shipped.depth, rel_tol=DEPTH_TOLERANCE):
+        raise SacflowError(
+            f"{path.name}: {case}'s {sequence} level {level} ran {ran[0]}² × {ran[1]} cells "
+            f"with {ran[2]} increments over {ran[3]:.6g} m, but its config ships "
+            f"{wanted[0]}² × {wanted[1]} cells with {wanted[2]} increments over "
+            f"{shipped.depth:.6g} m: run the shipped config without the traction beyond the box "
+            f"and name that level in SOURCES")
+    return level_values(path, case, sequence, level)
+
+
+@dataclass(frozen=True)
+class OptionChange:
+    """One quantity's values with and without the traction beyond the box, at the shipped grid
+    (``shipped_on``, ``shipped_off``) and at the window sequence's first level (``first_on``,
+    ``first_off``): :func:`sacflow.studies.certify.transfer` of the four is the transfer."""
+
+    shipped_on: float
+    shipped_off: float
+    first_on: float
+    first_off: float
+
+    @property
+    def at_shipped(self) -> float:
+        """d_s, the change removing the traction beyond the box makes at the shipped grid."""
+        return self.shipped_on - self.shipped_off
+
+    @property
+    def at_window(self) -> float:
+        """d_w, the change it makes at the window sequence's first level."""
+        return self.first_on - self.first_off
+
+
+def option_changes(case: str, sources: Sources, data: Path = DATA) -> dict[str, OptionChange]:
+    """Each quantity of :data:`QUANTITIES` with finite values in every table: its
+    :class:`OptionChange`."""
+    together = read_summary(data / sources.together)
+    shipped_far = read_summary(data / sources.shipped_far)
+    first_off = level_values(data / sources.window, case, "window", 0)
+    first_on = level_values(data / sources.window_far, case, "window", 0)
+    shipped_off = (None if sources.shipped_off is None
+                   else shipped_off_values(case, sources.shipped_off, data))
+    out: dict[str, OptionChange] = {}
+    for name in QUANTITIES:
+        fit, far = together.get((case, "together", name)), shipped_far.get((case, "window", name))
+        if fit is None or far is None or name not in first_off or name not in first_on:
+            continue
+        off = fit["shipped_value"] if shipped_off is None else shipped_off.get(name, math.nan)
+        if math.isfinite(far["shipped_value"]) and math.isfinite(off):
+            out[name] = OptionChange(far["shipped_value"], off, first_on[name], first_off[name])
+    return out
+
+
 def certificates(case: str, sources: Sources, data: Path = DATA) -> list[Certificate]:
     """Each quantity of :data:`QUANTITIES` that every table of ``case`` has, certified.
 
@@ -105,23 +184,17 @@ def certificates(case: str, sources: Sources, data: Path = DATA) -> list[Certifi
     """
     together = read_summary(data / sources.together)
     window = read_summary(data / sources.window_summary())
-    shipped_far = read_summary(data / sources.shipped_far)
-    first_off = level_values(data / sources.window, case, "window", 0)
-    first_on = level_values(data / sources.window_far, case, "window", 0)
+    changes = option_changes(case, sources, data)
     out: list[Certificate] = []
     scale: float | None = None
     for name in QUANTITIES:
-        rows = (together.get((case, "together", name)), window.get((case, "window", name)),
-                shipped_far.get((case, "window", name)))
-        if any(r is None for r in rows) or name not in first_off or name not in first_on:
+        fit, win = together.get((case, "together", name)), window.get((case, "window", name))
+        change = changes.get(name)
+        if fit is None or win is None or change is None:
             continue
-        fit, win, far = rows
-        assert fit is not None and win is not None and far is not None
-        if not math.isfinite(far["shipped_value"]) or not math.isfinite(fit["shipped_value"]):
-            continue
-        moved = transfer(far["shipped_value"], fit["shipped_value"], first_on[name],
-                         first_off[name])
-        certificate = certify(fit, win, first_off[name], far["shipped_value"], moved,
+        moved = transfer(change.shipped_on, change.shipped_off, change.first_on,
+                         change.first_off)
+        certificate = certify(fit, win, change.first_off, change.shipped_on, moved,
                               scale if name.startswith(PROFILE) else None)
         if name == PROFILE_SCALE:
             scale = certificate.limit

@@ -66,6 +66,24 @@ def convergence_certified(out: Path) -> dict[str, float]:
             numbers[name] = max(numbers.get(name, 0.0), float(r["transfer"]) / scale)
     numbers["cert_count_with_limit"] = numbers["cert_count_within"] + numbers["cert_count_outside"]
     numbers["cert_650mN_base_transfer_max"] = _base_transfer()
+    return numbers | _option_changes()
+
+
+def _option_changes() -> dict[str, float]:
+    """Per case and quantity, the change removing the traction beyond the box makes at the
+    shipped grid (``cert_{case}_{stem}_far_shipped``) and at the window sequence's first level
+    (``_far_window``), in SI units (``pipelines/convergence_certify.py``'s ``option_changes``)."""
+    import convergence_certify
+
+    numbers: dict[str, float] = {}
+    for name, sources in convergence_certify.SOURCES.items():
+        case = CELL_MEAN_CASES.get(name)
+        for quantity, change in convergence_certify.option_changes(name, sources).items():
+            stem = REFINED_QUANTITIES.get(quantity)
+            if case is None or stem is None:
+                continue
+            numbers[f"cert_{case}_{stem}_far_shipped"] = change.at_shipped
+            numbers[f"cert_{case}_{stem}_far_window"] = change.at_window
     return numbers
 
 
@@ -134,9 +152,13 @@ def press_pressure_profile(out: Path) -> dict[str, float]:
 
 def press_plastic_peak(out: Path) -> dict[str, float]:
     """Each row of ``data/press-plastic-peak.csv`` (``plastic_peak_{quantity}``): the shape of
-    the shipped press's largest εp, written by ``pipelines/press_plastic_peak.py``."""
-    return {f"plastic_peak_{r['quantity']}": float(r["value"])
-            for r in data_rows("press-plastic-peak.csv")}
+    the shipped press's largest εp, written by ``pipelines/press_plastic_peak.py``; and of
+    ``data/press-plastic-peak-increments20.csv`` (``plastic_peak_increments20_{quantity}``), the
+    same with the 20 + 6 increments it shipped before."""
+    return {f"plastic_peak_{prefix}{r['quantity']}": float(r["value"])
+            for prefix, name in (("", "press-plastic-peak.csv"),
+                                 ("increments20_", "press-plastic-peak-increments20.csv"))
+            for r in data_rows(name)}
 
 
 #: The press's lateral refinements split (``pipelines/press_lateral_error_split.py``): key ->
@@ -224,7 +246,51 @@ def convergence_tolerances(out: Path) -> dict[str, float]:
 
 
 #: The groups of this module: name -> (speed, function of the output folder).
+#: The press's shipped value with the traction beyond the box removed before its increments were
+#: doubled (96² × 128 cells, 20 + 6 increments), and the levels of its increments sequence at
+#: the shipped grid (without that traction) whose 20 + 6 and 40 + 12 levels predicted the
+#: doubling (docs/convergence.md, "The press's increments doubled").
+PRESS_SHIPPED_BEFORE = "convergence-press-shipped-subcell-stress-far-summary.csv"
+PRESS_INCREMENTS = ("convergence-press-subcell-stress-increments.csv", "increments", 0, 2)
+
+
+def press_increments_doubled(out: Path) -> dict[str, float]:
+    """Per certified quantity of the press (``doubled_{stem}_``), its error against the
+    certified limit as it shipped with 20 + 6 increments (``before``), as predicted for 40 + 12
+    from its increments sequence's levels plus the change removing the traction beyond the box
+    made at 20 + 6 (``predicted``), and as it ships with 40 + 12 (``after``), each relative to
+    the certificate's scale; that change of the largest εp's depth at 20 + 6
+    (``doubled_max_eqps_refined_depth_far_before``, in metres); and the largest |after −
+    predicted| over the quantities but that depth (``doubled_largest_miss_but_depth``)."""
+    import convergence_certify
+
+    from sacflow.studies.certify import level_values
+
+    case = "dent-from-indentation-press"
+    table, sequence, first, doubled = PRESS_INCREMENTS
+    levels = [level_values(convergence_certify.DATA / table, case, sequence, level)
+              for level in (first, doubled)]
+    before = {r["quantity"]: float(r["shipped_value"])
+              for r in data_rows(PRESS_SHIPPED_BEFORE) if r["shipped_value"]}
+    numbers: dict[str, float] = {}
+    for c in convergence_certify.certificates(case, convergence_certify.SOURCES[case]):
+        stem = REFINED_QUANTITIES[c.quantity]
+        far_before = before[c.quantity] - levels[0][c.quantity]
+        predicted = levels[1][c.quantity] + far_before
+        for suffix, value in (("before", before[c.quantity]), ("predicted", predicted),
+                              ("after", c.shipped_value)):
+            numbers[f"doubled_{stem}_{suffix}"] = (value - c.limit) / c.scale
+        if stem == "max_eqps_refined_depth":
+            numbers["doubled_max_eqps_refined_depth_far_before"] = far_before
+        else:
+            miss = abs(c.shipped_value - predicted) / c.scale
+            numbers["doubled_largest_miss_but_depth"] = max(
+                numbers.get("doubled_largest_miss_but_depth", 0.0), miss)
+    return numbers
+
+
 GROUPS = {"convergence_certified": ("fast", convergence_certified),
+          "press_increments_doubled": ("fast", press_increments_doubled),
           "press_load_phases": ("fast", press_load_phases),
           "press_pressure_profile": ("fast", press_pressure_profile),
           "press_plastic_peak": ("fast", press_plastic_peak),

@@ -21,6 +21,7 @@ from sacflow.studies.certify import (
     OUTSIDE,
     WITHIN,
     certify,
+    level_discretisation,
     level_values,
     plot_certificates,
 )
@@ -120,6 +121,35 @@ def test_level_values_reads_one_level_and_names_what_is_missing(tmp_path: Path):
         level_values(table, "c", "window", 2)
     with pytest.raises(SacflowError, match="no levels table"):
         level_values(tmp_path / "none.csv", "c", "window", 0)
+
+
+def test_level_discretisation_reads_what_the_level_ran(tmp_path: Path):
+    table = tmp_path / "levels.csv"
+    table.write_text("case,sequence,level,nx,nz,depth,increments,quantity,value\n"
+                     "c,increments,2,96,128,0.0005128859423,52,q,1.5\n")
+    assert level_discretisation(table, "c", "increments", 2) == (96, 128, 52, 0.0005128859423)
+    with pytest.raises(SacflowError, match="no level 1 of c's increments"):
+        level_discretisation(table, "c", "increments", 1)
+
+
+def test_the_press_s_shipped_value_without_the_far_traction_is_its_config_s():
+    """The press's certificate takes its shipped value without the traction beyond the box from
+    a recorded level; that level must be the config's discretisation, and another is refused
+    with a message that says what to run."""
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "pipelines"))
+    import convergence_certify
+
+    case = "dent-from-indentation-press"
+    source = convergence_certify.SOURCES[case].shipped_off
+    assert source is not None
+    values = convergence_certify.shipped_off_values(case, source)
+    assert math.isfinite(values["peak_pressure"])
+    table, sequence, _ = source
+    with pytest.raises(SacflowError, match=r"level 0 ran 96² × 128 cells with 26 increments.*"
+                                           r"ships 96² × 128 cells with 52 increments"):
+        convergence_certify.shipped_off_values(case, (table, sequence, 0))
 
 
 def test_the_stored_certificates_follow_from_the_stored_study_tables():

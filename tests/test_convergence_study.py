@@ -319,12 +319,12 @@ def test_the_ladders_keep_their_base_while_the_configs_ship_finer_discretisation
         pipeline.parse(["--cases", "nanoindentation-650mN", "--set", "grid.depth=2e-5"]),
         "nanoindentation-650mN")
     assert (base.nx, base.nz, base.depth) == (64, 24, 2e-5) and shipped.nx == 80
-    # the press ships 96² × 128 cells with 20 + 6 increments; its ladders stay at 48² × 16
+    # the press ships 96² × 128 cells with 40 + 12 increments; its ladders stay at 48² × 16
     # with 10 + 3, those of its recorded tables
     base, shipped, _, _ = pipeline.case_setup(
         pipeline.parse(["--cases", "dent-from-indentation-press"]), "dent-from-indentation-press")
     assert (base.nx, base.nz, base.increments) == (48, 16, (10, 3))
-    assert (shipped.nx, shipped.nz, shipped.increments) == (96, 128, (20, 6))
+    assert (shipped.nx, shipped.nz, shipped.increments) == (96, 128, (40, 12))
     assert base.depth == shipped.depth
 
 

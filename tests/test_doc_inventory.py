@@ -180,7 +180,7 @@ def test_measurements_and_bounds_name_their_script():
         if row["kind"] in SCRIPT_FOLDERS:
             scripts = re.findall(rf"{SCRIPT_FOLDERS[row['kind']]}/[\w-]+\.py", row["source"])
             command = row["kind"] == "measurement" and re.search(
-                r"\bsacflow (?:run|campaign) configs/[\w-]+\.toml", row["source"])
+                r"\bsacflow (?:run|campaign) (?:configs|pipelines)/[\w-]+\.toml", row["source"])
             assert scripts or command, f"{row['key']}: name the script that prints it"
             assert all((ROOT / s).exists() for s in scripts), row["key"]
 

@@ -40,8 +40,9 @@ from sacflow.errors import SacflowError
 from sacflow.studies.convergence_table import TARGET_ERROR
 from sacflow.studies.richardson import MONOTONE, relative_errors
 
-__all__ = ["CERTIFIED_COLUMNS", "FINEST", "LIMIT", "NO_LIMIT", "OUTSIDE", "WITHIN", "Certificate",
-           "certify", "level_values", "plot_certificates", "transfer"]
+__all__ = ["CERTIFIED_COLUMNS", "DEPTH_TOLERANCE", "FINEST", "LIMIT", "NO_LIMIT", "OUTSIDE",
+           "WITHIN", "Certificate", "certify", "level_discretisation", "level_values",
+           "plot_certificates", "transfer"]
 
 #: One row per case and quantity: the shipped value (the traction beyond the box removed), the
 #: `together` limit (or its finest level where it has none) and its uncertainty, the window's
@@ -55,6 +56,9 @@ CERTIFIED_COLUMNS: tuple[str, ...] = (
 #: ``together_kind`` of a `together` sequence with a Richardson limit, and of one without
 #: (oscillating, or no order), whose finest level stands in for it.
 LIMIT, FINEST = "limit", "finest"
+#: Relative tolerance on a recorded level's box depth against a config's: the tables store it
+#: to ten significant digits.
+DEPTH_TOLERANCE = 1e-8
 #: ``verdict``: within the target, outside it, or no limit to judge by (a diverging `together`
 #: sequence: its finest level stands in, with no uncertainty).
 WITHIN, OUTSIDE, NO_LIMIT = "within", "outside", "no limit"
@@ -155,6 +159,19 @@ def transfer(shipped_on: float, shipped_off: float, first_on: float, first_off: 
     return abs((shipped_on - shipped_off) - (first_on - first_off))
 
 
+def _level_rows(path: Path, case: str, sequence: str, level: int) -> list[dict[str, str]]:
+    """Return the rows of one level of a levels table, or raise a message naming the fix."""
+    if not path.is_file():
+        raise SacflowError(f"no levels table {path}: give the --table of a finished study")
+    with path.open(newline="", encoding="utf-8") as f:
+        rows = [r for r in csv.DictReader(f) if r["case"] == case
+                and r["sequence"] == sequence and r["level"] == str(level)]
+    if not rows:
+        raise SacflowError(f"{path} has no level {level} of {case}'s {sequence} sequence: "
+                           f"give the levels table the study wrote with that sequence")
+    return rows
+
+
 def level_values(path: Path, case: str, sequence: str, level: int) -> dict[str, float]:
     """Return the quantities of one level of a levels table (``LEVEL_COLUMNS``): name -> value.
 
@@ -163,16 +180,23 @@ def level_values(path: Path, case: str, sequence: str, level: int) -> dict[str, 
     SacflowError
         When the table does not have that case, sequence and level.
     """
-    if not path.is_file():
-        raise SacflowError(f"no levels table {path}: give the --table of a finished study")
-    with path.open(newline="", encoding="utf-8") as f:
-        values = {r["quantity"]: float(r["value"]) for r in csv.DictReader(f)
-                  if r["case"] == case and r["sequence"] == sequence
-                  and r["level"] == str(level) and r["value"]}
-    if not values:
-        raise SacflowError(f"{path} has no level {level} of {case}'s {sequence} sequence: "
-                           f"give the levels table the study wrote with that sequence")
-    return values
+    return {r["quantity"]: float(r["value"]) for r in _level_rows(path, case, sequence, level)
+            if r["value"]}
+
+
+def level_discretisation(path: Path, case: str, sequence: str,
+                         level: int) -> tuple[int, int, int, float]:
+    """Return what one level of a levels table ran: (cells per side, layers, increments, depth).
+
+    The increments are those of the whole load path, the box depth in metres.
+
+    Raises
+    ------
+    SacflowError
+        When the table does not have that case, sequence and level.
+    """
+    row = _level_rows(path, case, sequence, level)[0]
+    return int(row["nx"]), int(row["nz"]), int(row["increments"]), float(row["depth"])
 
 
 #: Marker of each verdict in :func:`plot_certificates`.

@@ -87,7 +87,7 @@ class StudyCase:
     :func:`study_base`) in place of the case file's: the nano-indentations ship 20 + 10
     increments and finer grids since issue #32 (chosen from the study's ``together`` limits),
     while their ladders stay those of the tables recorded at 64² × 24 cells and 10 + 5; the
-    press ships 96² × 128 cells with 20 + 6 increments and its ladders stay at 48² × 16 with
+    press ships 96² × 128 cells with 40 + 12 increments and its ladders stay at 48² × 16 with
     10 + 3.
     """
 
@@ -104,7 +104,7 @@ NANO_BASE_INCREMENTS = (10, 5)
 #: The ladders' base grid of the nano-indentations: surface cells per side, layers.
 NANO_BASE_GRID = (64, 24)
 #: The press's ladders' base (load + unload increments; surface cells per side, layers): the
-#: grid it shipped until issue #32 refined it (96² × 128 cells, 20 + 6 increments, the cell
+#: grid it shipped until issue #32 refined it (96² × 128 cells, 40 + 12 increments, the cell
 #: mean), and the anchor of its recorded tables.
 PRESS_BASE_INCREMENTS = (10, 3)
 PRESS_BASE_GRID = (48, 16)
