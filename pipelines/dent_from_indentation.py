@@ -1,6 +1,7 @@
 """What the indentation history of a dent changes under rolling: a chained case against its twin.
 
     python pipelines/dent_from_indentation.py --out runs/dent-from-indentation [--set KEY=VALUE ...]
+        [--press-set KEY=VALUE ...] [--overwrite]
 
 1. runs ``dent-from-indentation-press.toml``: a rigid sphere pressed into the bearing steel and
    removed (the dent, with its plastic strain, hardening and residual stress);
@@ -15,7 +16,9 @@
    the maximum Dang Van index (middle of the track) and where it sits from the dent.
 
 ``--set`` changes both rolling cases (``--set grid.nx=32 --set grid.ny=32``); ``--press-set``
-the press. Finished runs are not run again.
+the press. Finished runs are not run again. A run of another case under the same name (say a
+press made before its config changed) is kept, and the script stops with a message, unless
+``--overwrite`` is given: then the three runs are replaced by those of the cases asked for.
 """
 
 from __future__ import annotations
@@ -51,10 +54,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--set", dest="overrides", action="append", default=[])
     parser.add_argument("--press-set", dest="press_overrides", action="append", default=[])
     parser.add_argument("--no-progress", action="store_true")
+    parser.add_argument("--overwrite", action="store_true",
+                        help="replace runs of other cases stored under the same names")
     args = parser.parse_args(argv)
     try:
         result = compare_histories(args.out.resolve(), args.overrides, args.press_overrides,
-                                   progress=not args.no_progress)
+                                   progress=not args.no_progress, overwrite=args.overwrite)
     except SacflowError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
@@ -64,18 +69,23 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def compare_histories(out: Path, overrides: list[str], press_overrides: list[str],
-                      progress: bool = True) -> dict[str, float]:
-    """Run the three cases and the comparison (see the module docstring); return the numbers."""
+                      progress: bool = True, overwrite: bool = False) -> dict[str, float]:
+    """Run the three cases and the comparison (see the module docstring); return the numbers.
+
+    ``overwrite`` replaces a stored run of another case under a run's name
+    (:func:`sacflow.runner.run_case`); without it such a run is kept and the runner's
+    :class:`SacflowError` says so.
+    """
     press_case = load_case(PRESS, press_overrides)
     for rolling in (CHAINED, GEOMETRIC):  # every --set checked before the press runs
         load_case(rolling, overrides, check_files=False)  # the press run does not exist yet
     out.mkdir(parents=True, exist_ok=True)
-    press = run_case(press_case, out, progress=progress).path
+    press = run_case(press_case, out, progress=progress, overwrite=overwrite).path
     chained_case = load_case(CHAINED, [*overrides, f"initial_state.run={press}"])
     surface = write_surface(chained_case, out / SURFACE)
-    chained = run_case(chained_case, out, progress=progress).path
+    chained = run_case(chained_case, out, progress=progress, overwrite=overwrite).path
     geometric = run_case(load_case(GEOMETRIC, [*overrides, f"surface.path={surface}"]), out,
-                         progress=progress).path
+                         progress=progress, overwrite=overwrite).path
     result = comparison(chained, geometric)
     path = out / "dent-from-indentation-comparison.nc"
     result.to_netcdf(path)

@@ -245,7 +245,6 @@ def convergence_tolerances(out: Path) -> dict[str, float]:
     return numbers
 
 
-#: The groups of this module: name -> (speed, function of the output folder).
 #: The press's shipped value with the traction beyond the box removed before its increments were
 #: doubled (96² × 128 cells, 20 + 6 increments), and the levels of its increments sequence at
 #: the shipped grid (without that traction) whose 20 + 6 and 40 + 12 levels predicted the
@@ -289,6 +288,7 @@ def press_increments_doubled(out: Path) -> dict[str, float]:
     return numbers
 
 
+#: The groups of this module: name -> (speed, function of the output folder).
 GROUPS = {"convergence_certified": ("fast", convergence_certified),
           "press_increments_doubled": ("fast", press_increments_doubled),
           "press_load_phases": ("fast", press_load_phases),
