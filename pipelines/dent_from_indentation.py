@@ -37,6 +37,7 @@ from sacflow.config.schema import Case
 from sacflow.config.solver_inputs import simulation_for
 from sacflow.errors import SacflowError
 from sacflow.runner import run_case
+from sacflow.storage.atomic_file import write_atomically
 from sacflow.storage.case_file import load_case
 from sacflow.storage.initial_state_file import read_initial_state
 
@@ -88,8 +89,9 @@ def compare_histories(out: Path, overrides: list[str], press_overrides: list[str
                          progress=progress, overwrite=overwrite).path
     result = comparison(chained, geometric)
     path = out / "dent-from-indentation-comparison.nc"
-    result.to_netcdf(path)
-    plot(result).savefig(path.with_suffix(".png"), dpi=120)
+    write_atomically(path, result.to_netcdf)
+    figure = plot(result)
+    write_atomically(path.with_suffix(".png"), lambda tmp: figure.savefig(tmp, dpi=120))
     for run in (chained, geometric):
         write(fatigue(run), out / "fatigue", f"{run.stem}-fatigue")
     return {k: float(v) for k, v in result.data_vars.items() if v.ndim == 0}
@@ -111,8 +113,7 @@ def write_surface(chained: Case, target: Path) -> Path:
     lines += [f"{a!r} {b!r} {-h!r}" for a, b, h in  # full precision: the grid's own points
               zip(x1.ravel().tolist(), x2.ravel().tolist(),
                   sim.residual_displacement.ravel().tolist(), strict=True)]
-    target.write_text("\n".join(lines) + "\n")
-    return target
+    return write_atomically(target, lambda tmp: tmp.write_text("\n".join(lines) + "\n"))
 
 
 def _after(run: xr.Dataset) -> xr.Dataset:

@@ -25,6 +25,7 @@ from pathlib import Path
 from sacflow.campaign import load_campaign, run_campaign
 from sacflow.compare.plots import display_scale
 from sacflow.errors import SacflowError
+from sacflow.storage.atomic_file import write_atomically
 from sacflow.studies.dent_study import (
     dent_summary,
     fatigue_results,
@@ -79,8 +80,10 @@ def _study(args: argparse.Namespace, limits: tuple[float, float] | None) -> int:
     stage = time.perf_counter()
     summary = dent_summary(*manifests, fatigue_dir)
     nc = write_summary(summary, args.out / "dent-study-summary.nc")
-    plot_index_vs_slope(summary).savefig(args.out / "dent-study-index-vs-slope.png", dpi=120)
-    plot_worst_case(summary, fatigue_dir).savefig(args.out / "dent-study-worst-case.png", dpi=120)
+    for name, figure in (("index-vs-slope", plot_index_vs_slope(summary)),
+                         ("worst-case", plot_worst_case(summary, fatigue_dir))):
+        write_atomically(args.out / f"dent-study-{name}.png",
+                         lambda tmp, figure=figure: figure.savefig(tmp, dpi=120))
     end = time.perf_counter()
     _print_table(summary)
     print(f"campaigns {runs - start:.0f} s, fatigue stage {stage - runs:.0f} s, summary "

@@ -31,6 +31,7 @@ import xarray as xr
 from sacflow.campaign import load_campaign, run_campaign
 from sacflow.compare.core import case_of
 from sacflow.errors import SacflowError
+from sacflow.storage.atomic_file import write_atomically
 from sacflow.storage.run_reader import open_run
 from sacflow.studies.dent_study import fatigue_results
 
@@ -77,7 +78,8 @@ def _study(args: argparse.Namespace) -> int:
             for record in finished_cases(outcome.manifest) if record["name"] in results]
     table = write_table(rows, args.out / f"{STEM}-summary.csv")
     figure = plot_index_vs_depth(rows)
-    figure.savefig(args.out / f"{STEM}-index-vs-depth.png", dpi=120)
+    write_atomically(args.out / f"{STEM}-index-vs-depth.png",
+                     lambda tmp: figure.savefig(tmp, dpi=120))
     for row in rows:
         print("  ".join(f"{key}={_short(row[key])}" for key in COLUMNS))
     end = time.perf_counter()
@@ -126,13 +128,13 @@ def _short(value: Any) -> str:
 
 def write_table(rows: list[dict[str, Any]], path: Path) -> Path:
     """Write the summary rows as CSV (a temporary file moved onto ``path``)."""
-    tmp = path.with_name(f".{path.name}.tmp")
-    with tmp.open("w", newline="", encoding="utf-8") as f:
-        writer = csv.DictWriter(f, fieldnames=COLUMNS)
-        writer.writeheader()
-        writer.writerows(rows)
-    tmp.replace(path)
-    return path
+    def write(tmp: Path) -> None:
+        with tmp.open("w", newline="", encoding="utf-8") as f:
+            writer = csv.DictWriter(f, fieldnames=COLUMNS)
+            writer.writeheader()
+            writer.writerows(rows)
+
+    return write_atomically(path, write)
 
 
 def plot_index_vs_depth(rows: list[dict[str, Any]]):

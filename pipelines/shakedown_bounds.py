@@ -27,9 +27,7 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import time
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -38,6 +36,7 @@ import numpy as np
 from sacflow.errors import SacflowError
 from sacflow.mechanics.shakedown import MelanBound
 from sacflow.mechanics.shakedown_bracket import rolling_bracket
+from sacflow.storage.atomic_file import write_atomically
 from sacflow.storage.output_dir import check_output_dir
 
 SQRT3 = float(np.sqrt(3.0))
@@ -95,21 +94,10 @@ def main(argv: list[str] | None = None) -> int:
         results.append(bound)
     if args.out is not None:
         args.out.mkdir(parents=True, exist_ok=True)
-        _write_atomically(args.out / "shakedown_bounds.json",
-                          lambda tmp: tmp.write_text(json.dumps(rows, indent=1) + "\n"))
-        _write_atomically(args.out / "shakedown_bounds.png",
-                          lambda tmp: plot(rows, results, tmp))
+        write_atomically(args.out / "shakedown_bounds.json",
+                         lambda tmp: tmp.write_text(json.dumps(rows, indent=1) + "\n"))
+        write_atomically(args.out / "shakedown_bounds.png", lambda tmp: plot(rows, results, tmp))
     return 0
-
-
-def _write_atomically(path: Path, write: Callable[[Path], object]) -> None:
-    """Write ``path`` under a temporary name, then rename: never a half-written file."""
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        write(tmp)
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
 
 
 def plot(rows: list[dict[str, Any]], results: list[MelanBound], path: Path) -> None:

@@ -26,7 +26,6 @@ pressure distribution in dry point contacts").
 from __future__ import annotations
 
 import json
-import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -41,6 +40,7 @@ from sacflow.compare.output import write
 from sacflow.compare.plots import plot_fatigue
 from sacflow.config.schema import Case
 from sacflow.errors import SacflowError
+from sacflow.storage.atomic_file import write_atomically
 
 __all__ = [
     "STUDY_RESULTS",
@@ -339,13 +339,5 @@ def plot_worst_case(summary: xr.Dataset, fatigue_dir: str | Path) -> Figure:
 
 def write_summary(summary: xr.Dataset, path: str | Path) -> Path:
     """Write the summary netCDF atomically (temporary file, then rename)."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        summary.to_netcdf(tmp)
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
-    return path
+    return write_atomically(path, summary.to_netcdf)
 
