@@ -399,8 +399,8 @@ class LevelRunner:
         except SacflowError as exc:
             print(f"  failed: {exc}", file=sys.stderr)
             return None
-        print(f"  {record['elapsed']:.1f} s, all steps converged: {record['converged']}",
-              flush=True)
+        print(f"  {record['elapsed']:.1f} s, {record['plasticity_iterations']} plasticity "
+              f"iterations, all steps converged: {record['converged']}", flush=True)
         write_json(path, record)
         return record
 
@@ -420,6 +420,7 @@ class LevelRunner:
             "nx": level.nx, "nz": level.nz, "depth": level.depth,
             "increments": list(level.increments), "source": self.fingerprint,
             "elapsed": elapsed, "converged": all(s.converged for s in states),
+            "plasticity_iterations": sum(s.plasticity_iterations for s in states),
             "quantities": quantities, "profile": profile,
         }
 
