@@ -288,11 +288,54 @@ def press_increments_doubled(out: Path) -> dict[str, float]:
     return numbers
 
 
+#: ``data/press-flow-points.csv``'s quantities in docs/convergence.md -> key stem.
+FLOW_POINTS = {"print_depth_refined": "print_depth", "peak_pressure": "peak_pressure",
+               "max_plastic_strain_refined": "max_eqps",
+               "residual_s11_axis_min_refined": "min_s11",
+               "residual_s11_axis_refined_at_0.5a": "s11_0.5a",
+               "residual_s11_axis_refined_at_1.5a": "s11_1.5a"}
+
+
+def press_flow_points(out: Path) -> dict[str, float]:
+    """``pipelines/press_flow_points.py``'s three runs (``data/press-flow-points.csv``): the
+    96² cells' values (``flow_points_fine_{stem}``), the 48² cells' and the points' relative to
+    them (``flow_points_{coarse,points}_{stem}``); the largest εp over the 48² cells' footprints
+    (``_max_eqps_coarse_cells``: the coarse run's cells, the others' 2 × 2 block means); each
+    run's plasticity iterations; and the largest εp of a point and of a block of the
+    ``points`` run (``flow_points_points_max_eqps_cell``, ``_block``); its iterations over the
+    96² cells' (``flow_points_iterations_ratio``)."""
+    rows = {row["variant"]: row for row in data_rows("press-flow-points.csv")}
+    fine = rows["fine"]
+    numbers: dict[str, float] = {}
+    for quantity, stem in FLOW_POINTS.items():
+        numbers[f"flow_points_fine_{stem}"] = float(fine[quantity])
+        for variant in ("coarse", "points"):
+            numbers[f"flow_points_{variant}_{stem}"] = (float(rows[variant][quantity])
+                                                        / float(fine[quantity]) - 1.0)
+    # the largest εp over the 48² cells' footprints: the coarse run's own cells, the others'
+    # 2 × 2 block means
+    coarse_cells = {"coarse": float(rows["coarse"]["max_plastic_strain"]),
+                    "points": float(rows["points"]["max_plastic_strain_block_mean"]),
+                    "fine": float(fine["max_plastic_strain_block_mean"])}
+    numbers["flow_points_fine_max_eqps_coarse_cells"] = coarse_cells["fine"]
+    for variant in ("coarse", "points"):
+        numbers[f"flow_points_{variant}_max_eqps_coarse_cells"] = (coarse_cells[variant]
+                                                                   / coarse_cells["fine"] - 1.0)
+    for variant, row in rows.items():
+        numbers[f"flow_points_{variant}_iterations"] = float(row["plasticity_iterations"])
+    numbers["flow_points_points_max_eqps_cell"] = float(rows["points"]["max_plastic_strain"])
+    numbers["flow_points_points_max_eqps_block"] = coarse_cells["points"]
+    numbers["flow_points_iterations_ratio"] = (numbers["flow_points_points_iterations"]
+                                               / numbers["flow_points_fine_iterations"])
+    return numbers
+
+
 #: The groups of this module: name -> (speed, function of the output folder).
 GROUPS = {"convergence_certified": ("fast", convergence_certified),
           "press_increments_doubled": ("fast", press_increments_doubled),
           "press_load_phases": ("fast", press_load_phases),
           "press_pressure_profile": ("fast", press_pressure_profile),
           "press_plastic_peak": ("fast", press_plastic_peak),
+          "press_flow_points": ("fast", press_flow_points),
           "press_lateral_error_split": ("fast", press_lateral_error_split),
           "convergence_tolerances": ("fast", convergence_tolerances)}

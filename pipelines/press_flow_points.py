@@ -1,0 +1,159 @@
+"""Points of flow without cells of their own: is the press's lateral error the flow's sampling?
+
+``python pipelines/press_flow_points.py [--cells N] [--layers L] [--increments LOAD UNLOAD]
+[--table CSV [--overwrite]]``
+
+The press's lateral error (docs/convergence.md, "What is left of the press's error") could be
+that of computing the flow at one point per cell while the cell mean already spreads each cell's
+plastic strain bilinearly over its neighbours; more points of flow per cell would then remove
+it. This script tests that with three runs of the press
+(``pipelines/dent-from-indentation-press.toml`` as its lateral tables were recorded: the
+traction beyond the box left out, the study's box depth), all with the contact solved on the
+same 2N × 2N surface cells:
+
+* ``coarse``: N² cells with the contact on 2 × 2 sub-cells: one point of flow per cell;
+* ``points``: (2N)² cells whose plastic strain the eigenstrain operator sees as its mean over
+  blocks of 2 × 2 cells: the N² cells' plastic strain, with the flow computed at four points
+  of each (the centres of its quarters, each with its own plastic strain and hardening);
+* ``fine``: (2N)² cells, each with its own plastic strain.
+
+If the flow's sampling carried the error, ``points`` would lie near ``fine``. What it shows
+instead (docs/convergence.md, "More points of flow are not finer cells") is that a point whose
+plastic strain the operator only sees through its block's mean is relieved by a quarter of the
+stress its own plastic strain should remove, so it flows further: the points' plastic strains
+part from each other with nothing to stop them. The table gives each run's quantities
+(:func:`sacflow.studies.convergence.measure`), the largest block mean of εp over 2 × 2 cells,
+the plastic iterations and the time.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from typing import Any
+
+import numpy as np
+from press_edge_position import case_for
+
+from sacflow.config.case import Case
+from sacflow.config.solver_inputs import simulation_for
+from sacflow.errors import SacflowError
+from sacflow.kernels.eigenstrain import HalfSpaceEigenstrain
+from sacflow.solver.history import light_history
+from sacflow.studies.convergence_table import (
+    add_table_arguments,
+    refuse_existing_table,
+    write_csv,
+)
+
+#: The press's lateral window in Hertz radii (its config's ``grid.half_width``).
+WINDOW = 3.0
+#: Cells per block side: the ``points`` run's eigenstrain is the mean over BLOCK² cells.
+BLOCK = 2
+VARIANTS = ("coarse", "points", "fine")
+#: Quantities printed on each line (all of :func:`measure`'s go to the table).
+SHOWN = ("print_depth_refined", "peak_pressure", "max_plastic_strain_refined",
+         "max_plastic_strain_block_mean", "residual_s11_axis_refined_at_0.5a",
+         "residual_s11_axis_refined_at_1.5a")
+
+
+def block_mean(field: np.ndarray, block: int = BLOCK) -> np.ndarray:
+    """Mean of ``field`` (n1, n2, ...) over lateral blocks of ``block`` × ``block`` cells."""
+    n1, n2 = field.shape[:2]
+    if n1 % block or n2 % block:
+        raise ValueError(f"{n1} × {n2} cells do not split into blocks of {block} × {block}")
+    blocks = field.reshape(n1 // block, block, n2 // block, block, *field.shape[2:])
+    return np.asarray(blocks.mean(axis=(1, 3)))
+
+
+def spread_block_mean(field: np.ndarray, block: int = BLOCK) -> np.ndarray:
+    """``field`` with each block of ``block`` × ``block`` cells replaced by its mean."""
+    mean = block_mean(field, block)
+    return np.ascontiguousarray(np.repeat(np.repeat(mean, block, axis=0), block, axis=1))
+
+
+def see_block_means(eigen: HalfSpaceEigenstrain, block: int = BLOCK) -> None:
+    """Make ``eigen`` act on the block means of every plastic strain it is given.
+
+    Its two entry points that take a plastic strain, :meth:`surface_fields` (through which
+    :meth:`residual_stress` goes) and :meth:`residual_displacement`, are wrapped on this
+    instance; the solver's own plastic strain, one per cell, is left as it is.
+    """
+    surface_fields, residual_displacement = eigen.surface_fields, eigen.residual_displacement
+
+    def block_surface_fields(eps: np.ndarray, with_displacement: bool = True
+                             ) -> tuple[np.ndarray, np.ndarray | None]:
+        return surface_fields(spread_block_mean(eps, block), with_displacement)
+
+    def block_residual_displacement(eps: np.ndarray) -> np.ndarray:
+        return residual_displacement(spread_block_mean(eps, block))
+
+    eigen.surface_fields = block_surface_fields  # type: ignore[method-assign]
+    eigen.residual_displacement = block_residual_displacement  # type: ignore[method-assign]
+
+
+def variant_case(variant: str, cells: int, layers: int, increments: tuple[int, int]) -> Case:
+    """Return the press of ``variant`` (module doc) for the coarse grid of ``cells`` per side."""
+    if variant == "coarse":
+        return case_for(cells, layers, increments, WINDOW, subcells=BLOCK)
+    return case_for(BLOCK * cells, layers, increments, WINDOW)
+
+
+def run_variant(variant: str, case: Case) -> dict[str, Any]:
+    """Run ``case`` as ``variant`` and return its row of the table."""
+    from sacflow.studies.convergence import measure
+
+    start = time.perf_counter()
+    sim = simulation_for(case)
+    if variant == "points":
+        see_block_means(sim.operators.eigenstrain)
+    states = light_history(sim.run(), fields_of=lambda s: s.load)
+    quantities, _ = measure(sim, states, case.hertz().a)
+    strain = np.asarray(sim.equivalent_plastic_strain, dtype=float)
+    even = strain.shape[0] % BLOCK == 0 and strain.shape[1] % BLOCK == 0
+    return {"variant": variant, "nx": case.grid.nx, "layers": case.grid.nz,
+            "subcells": case.solver.contact_subcells,
+            "max_plastic_strain_block_mean": (float(block_mean(strain).max()) if even
+                                              else float("nan")),
+            "plasticity_iterations": sum(s.plasticity_iterations for s in states),
+            "seconds": time.perf_counter() - start, **quantities}
+
+
+def parse(argv: list[str]) -> argparse.Namespace:
+    """Parse the command line."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--cells", type=int, default=48,
+                        help="cells per side of the coarse grid (48); the others have twice")
+    parser.add_argument("--layers", type=int, default=64, help="layers over the box (64)")
+    parser.add_argument("--increments", type=int, nargs=2, default=(20, 6),
+                        metavar=("LOAD", "UNLOAD"), help="load and unload increments (20 6)")
+    add_table_arguments(parser)
+    return parser.parse_args(argv)
+
+
+def main(argv: list[str]) -> None:
+    """Run the three variants, print a line each, write the table."""
+    args = parse(argv)
+    refuse_existing_table(args.table, args.overwrite)
+    increments = (args.increments[0], args.increments[1])
+    try:  # every case first: a grid the press cannot run stops before any run
+        cases = [variant_case(v, args.cells, args.layers, increments) for v in VARIANTS]
+    except SacflowError as exc:
+        raise SystemExit(f"error: {exc}") from None
+    rows = []
+    for variant, case in zip(VARIANTS, cases, strict=True):
+        row = run_variant(variant, case)
+        rows.append(row)
+        shown = ", ".join(f"{name} {row[name]:.6g}" for name in SHOWN)
+        print(f"{variant}: {row['nx']}² × {row['layers']}, {row['plasticity_iterations']} "
+              f"plastic iterations, {row['seconds']:.0f} s; {shown}", flush=True)
+    if args.table is not None:
+        try:
+            write_csv(args.table, rows, list(rows[0]), overwrite=args.overwrite)
+        except SacflowError as exc:  # the table appeared while the runs went on
+            raise SystemExit(f"error: {exc}") from None
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])

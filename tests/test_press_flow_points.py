@@ -1,0 +1,92 @@
+"""``pipelines/press_flow_points.py``: points of flow that see their plastic strain through a block.
+
+The script's ``points`` run computes the flow at the 2 × 2 cells of each block while the
+eigenstrain operator sees the block's mean plastic strain. These tests check the wrapping
+itself (exactly the operator of the block means, the solver's own field untouched), the
+mechanism the documentation draws from it (a point is relieved by about a third of the stress
+its own cell removes, so it must flow further), and, slow, the script end to end.
+"""
+
+from __future__ import annotations
+
+import csv
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sacflow.kernels.eigenstrain import HalfSpaceEigenstrain
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "pipelines"))
+import press_flow_points as module  # noqa: E402  (a pipeline script; imports its sibling)
+
+SHAPE = (8, 8, 4)
+SPACING = (1e-6, 1e-6, 1e-6)
+E, NU = 210e9, 0.3
+
+
+def test_block_mean_keeps_each_blocks_total_and_refuses_odd_grids():
+    rng = np.random.default_rng(3)
+    field = rng.normal(size=(6, 4, 3, 6))
+    spread = module.spread_block_mean(field)
+    assert spread.shape == field.shape
+    np.testing.assert_allclose(module.block_mean(spread), module.block_mean(field), rtol=1e-14)
+    np.testing.assert_array_equal(spread[0, 0], spread[1, 1])
+    assert spread.sum() == pytest.approx(field.sum(), rel=1e-12)
+    with pytest.raises(ValueError, match="do not split"):
+        module.block_mean(np.zeros((5, 4, 2)))
+
+
+@pytest.mark.parametrize("sampling", [1, 2])
+def test_the_wrapped_operator_is_the_operator_of_the_block_means(sampling):
+    plain = HalfSpaceEigenstrain(SHAPE, SPACING, E, NU, threads=1, stress_sampling=sampling)
+    wrapped = HalfSpaceEigenstrain(SHAPE, SPACING, E, NU, threads=1, stress_sampling=sampling)
+    module.see_block_means(wrapped)
+    eps = np.random.default_rng(sampling).normal(scale=1e-3, size=(*SHAPE, 6))
+    before = eps.copy()
+    means = module.spread_block_mean(eps)
+    np.testing.assert_array_equal(wrapped.residual_stress(eps), plain.residual_stress(means))
+    np.testing.assert_array_equal(wrapped.residual_displacement(eps),
+                                  plain.residual_displacement(means))
+    stress, displacement = wrapped.residual_stress(eps, with_displacement=True)
+    np.testing.assert_array_equal(displacement, plain.residual_displacement(means))
+    np.testing.assert_array_equal(eps, before)  # the solver's field is not touched
+
+
+@pytest.mark.parametrize("sampling", [1, 2])
+def test_a_point_seen_through_its_block_is_relieved_by_about_a_third(sampling):
+    """A lone ε11 in one cell: its own σ11 relief with the block mean is about a third of the
+    plain operator's (a quarter of the strain, spread over the block), so the flow that balances
+    a given stress excess must be about three times larger at such a point."""
+    plain = HalfSpaceEigenstrain(SHAPE, SPACING, E, NU, threads=1, stress_sampling=sampling)
+    wrapped = HalfSpaceEigenstrain(SHAPE, SPACING, E, NU, threads=1, stress_sampling=sampling)
+    module.see_block_means(wrapped)
+    eps = np.zeros((*SHAPE, 6))
+    cell = (3, 4, 2)
+    eps[(*cell, 0)] = 1e-3
+    own = plain.residual_stress(eps)[(*cell, 0)]
+    seen = wrapped.residual_stress(eps)[(*cell, 0)]
+    assert own < 0.0 and seen < 0.0  # both relieve the compression the strain removes
+    assert 0.25 < seen / own < 0.4
+
+
+@pytest.mark.slow
+def test_the_script_runs_the_three_variants_and_keeps_its_table(tmp_path, capsys):
+    table = tmp_path / "points.csv"
+    argv = ["--cells", "24", "--layers", "8", "--increments", "4", "2", "--table", str(table)]
+    module.main(argv)
+    rows = {row["variant"]: row for row in csv.DictReader(table.open())}
+    assert list(rows) == ["coarse", "points", "fine"]
+    assert [int(rows[v]["nx"]) for v in rows] == [24, 48, 48]
+    assert [int(rows[v]["subcells"]) for v in rows] == [2, 1, 1]
+    points, fine = rows["points"], rows["fine"]
+    # the points part: their largest εp far above their block means' and the fine cells'
+    assert float(points["max_plastic_strain"]) > 2 * float(points["max_plastic_strain_block_mean"])
+    assert float(points["max_plastic_strain"]) > 2 * float(fine["max_plastic_strain"])
+    assert int(points["plasticity_iterations"]) > int(fine["plasticity_iterations"])
+    before = table.read_bytes()
+    with pytest.raises(SystemExit, match="exists; nothing was changed"):
+        module.main(argv)
+    assert table.read_bytes() == before
+    assert "points: 48²" in capsys.readouterr().out
