@@ -53,7 +53,7 @@ from sacflow.studies.convergence import (
 from sacflow.studies.convergence_table import (
     add_table_arguments,
     refuse_existing_table,
-    write_csv,
+    write_runs_table,
 )
 
 CASE = STUDY_CASES["dent-from-indentation-press"]
@@ -156,11 +156,7 @@ def main(argv: list[str]) -> None:
               f"{row['cell'] * 1e6:.3f} µm, contact radius {row['contact_radius'] * 1e6:.1f} µm, "
               f"edge at {row['edge_in_cell']:.2f} of its cell, {row['seconds']:.0f} s; {shown}",
               flush=True)
-    if args.table is not None:
-        try:
-            write_csv(args.table, rows, list(rows[0]), overwrite=args.overwrite)
-        except SacflowError as exc:  # the table appeared while the runs went on
-            raise SystemExit(f"error: {exc}") from None
+    write_runs_table(args.table, rows, args.overwrite)
 
 
 if __name__ == "__main__":

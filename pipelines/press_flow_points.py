@@ -15,15 +15,20 @@ same 2N × 2N surface cells:
 * ``points``: (2N)² cells whose plastic strain the eigenstrain operator sees as its mean over
   blocks of 2 × 2 cells: the N² cells' plastic strain, with the flow computed at four points
   of each (the centres of its quarters, each with its own plastic strain and hardening);
+* ``averaged``: (2N)² cells whose return, at each cell's own stress, is replaced by its mean
+  over the cell's block of 2 × 2 (both Δεp and Δp): the N² cells' plastic strain and hardening,
+  each cell's increment the mean of the flows at its four points; every point keeps the plastic
+  strain the operators see;
 * ``fine``: (2N)² cells, each with its own plastic strain.
 
-If the flow's sampling carried the error, ``points`` would lie near ``fine``. What it shows
-instead (docs/convergence.md, "More points of flow are not finer cells") is that a point whose
-plastic strain the operator only sees through its block's mean is relieved by a quarter of the
-stress its own plastic strain should remove, so it flows further: the points' plastic strains
-part from each other with nothing to stop them. The table gives each run's quantities
-(:func:`sacflow.studies.convergence.measure`), the largest block mean of εp over 2 × 2 cells,
-the plastic iterations and the time.
+If the flow's sampling carried the error, ``points`` or ``averaged`` would lie near ``fine``.
+What ``points`` shows instead (docs/convergence.md, "What is left of the press's error") is that
+a point whose plastic strain the operator only sees through its block's mean is relieved by
+about a third of the stress its own plastic strain should remove, so it flows further: the
+points' plastic strains part from each other with nothing to stop them. ``averaged`` is the
+consistent form of more points of flow per cell unknown. ``--variants`` runs a subset. The
+table gives each run's quantities (:func:`sacflow.studies.convergence.measure`), the largest
+block mean of εp over 2 × 2 cells, the plastic iterations and the time.
 """
 
 from __future__ import annotations
@@ -44,14 +49,14 @@ from sacflow.solver.history import light_history
 from sacflow.studies.convergence_table import (
     add_table_arguments,
     refuse_existing_table,
-    write_csv,
+    write_runs_table,
 )
 
 #: The press's lateral window in Hertz radii (its config's ``grid.half_width``).
 WINDOW = 3.0
 #: Cells per block side: the ``points`` run's eigenstrain is the mean over BLOCK² cells.
 BLOCK = 2
-VARIANTS = ("coarse", "points", "fine")
+VARIANTS = ("coarse", "points", "averaged", "fine")
 #: Quantities printed on each line (all of :func:`measure`'s go to the table).
 SHOWN = ("print_depth_refined", "peak_pressure", "max_plastic_strain_refined",
          "max_plastic_strain_block_mean", "residual_s11_axis_refined_at_0.5a",
@@ -93,6 +98,27 @@ def see_block_means(eigen: HalfSpaceEigenstrain, block: int = BLOCK) -> None:
     eigen.residual_displacement = block_residual_displacement  # type: ignore[method-assign]
 
 
+def average_the_return(fixed_point: Any, block: int = BLOCK) -> None:
+    """Make ``fixed_point``'s return give every cell its block's mean Δεp and Δp (in place).
+
+    ``fixed_point`` is the solver's :class:`~sacflow.solver.fixed_point.PlasticFixedPoint`; its
+    return (``_return``: the one the fixed point iterates and the one its Jacobian is built on)
+    is wrapped on this instance. Each cell still returns at its own trial stress; the means make
+    the plastic strain uniform over each block, as the coarse cells' unknowns are.
+    """
+    original = fixed_point._return
+
+    def averaged(*args: Any) -> Any:
+        returns = original(*args)
+        for result in {id(r): r for r in returns}.values():  # once if they are one object
+            for field in (result.plastic_strain_increment,
+                          result.equivalent_plastic_strain_increment):
+                field[...] = spread_block_mean(field, block)
+        return returns
+
+    fixed_point._return = averaged
+
+
 def variant_case(variant: str, cells: int, layers: int, increments: tuple[int, int]) -> Case:
     """Return the press of ``variant`` (module doc) for the coarse grid of ``cells`` per side."""
     if variant == "coarse":
@@ -108,6 +134,8 @@ def run_variant(variant: str, case: Case) -> dict[str, Any]:
     sim = simulation_for(case)
     if variant == "points":
         see_block_means(sim.operators.eigenstrain)
+    elif variant == "averaged":
+        average_the_return(sim.increments.fixed_point)
     states = light_history(sim.run(), fields_of=lambda s: s.load)
     quantities, _ = measure(sim, states, case.hertz().a)
     strain = np.asarray(sim.equivalent_plastic_strain, dtype=float)
@@ -128,31 +156,35 @@ def parse(argv: list[str]) -> argparse.Namespace:
     parser.add_argument("--layers", type=int, default=64, help="layers over the box (64)")
     parser.add_argument("--increments", type=int, nargs=2, default=(20, 6),
                         metavar=("LOAD", "UNLOAD"), help="load and unload increments (20 6)")
+    parser.add_argument("--variants", default=",".join(VARIANTS),
+                        help=f"comma-separated, of {', '.join(VARIANTS)} (all)")
     add_table_arguments(parser)
-    return parser.parse_args(argv)
+    args = parser.parse_args(argv)
+    args.variants = [v.strip() for v in args.variants.split(",") if v.strip()]
+    unknown = sorted(set(args.variants) - set(VARIANTS))
+    if unknown or not args.variants:
+        parser.error(f"--variants: {', '.join(unknown) or 'none given'}: choose from "
+                     f"{', '.join(VARIANTS)}")
+    return args
 
 
 def main(argv: list[str]) -> None:
-    """Run the three variants, print a line each, write the table."""
+    """Run the variants, print a line each, write the table."""
     args = parse(argv)
     refuse_existing_table(args.table, args.overwrite)
     increments = (args.increments[0], args.increments[1])
     try:  # every case first: a grid the press cannot run stops before any run
-        cases = [variant_case(v, args.cells, args.layers, increments) for v in VARIANTS]
+        cases = [variant_case(v, args.cells, args.layers, increments) for v in args.variants]
     except SacflowError as exc:
         raise SystemExit(f"error: {exc}") from None
     rows = []
-    for variant, case in zip(VARIANTS, cases, strict=True):
+    for variant, case in zip(args.variants, cases, strict=True):
         row = run_variant(variant, case)
         rows.append(row)
         shown = ", ".join(f"{name} {row[name]:.6g}" for name in SHOWN)
         print(f"{variant}: {row['nx']}² × {row['layers']}, {row['plasticity_iterations']} "
               f"plastic iterations, {row['seconds']:.0f} s; {shown}", flush=True)
-    if args.table is not None:
-        try:
-            write_csv(args.table, rows, list(rows[0]), overwrite=args.overwrite)
-        except SacflowError as exc:  # the table appeared while the runs went on
-            raise SystemExit(f"error: {exc}") from None
+    write_runs_table(args.table, rows, args.overwrite)
 
 
 if __name__ == "__main__":

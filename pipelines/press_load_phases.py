@@ -47,7 +47,7 @@ from sacflow.studies.convergence import (
 from sacflow.studies.convergence_table import (
     add_table_arguments,
     refuse_existing_table,
-    write_csv,
+    write_runs_table,
 )
 
 CASE = STUDY_CASES["dent-from-indentation-press"]
@@ -129,10 +129,7 @@ def main(argv: list[str]) -> None:
         print(f"{name} ({row['first_half']} + {row['second_half']}): {row['seconds']:.0f} s, "
               f"{shown}", flush=True)
     if args.table is not None:
-        try:
-            write_csv(args.table, rows, list(rows[0]), args.overwrite)
-        except SacflowError as exc:  # the table appeared, or its folder went, during the runs
-            raise SystemExit(f"error: {exc}") from None
+        write_runs_table(args.table, rows, args.overwrite)
         print(f"table: {args.table}")
 
 

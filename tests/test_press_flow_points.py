@@ -1,10 +1,11 @@
 """``pipelines/press_flow_points.py``: points of flow that see their plastic strain through a block.
 
 The script's ``points`` run computes the flow at the 2 × 2 cells of each block while the
-eigenstrain operator sees the block's mean plastic strain. These tests check the wrapping
-itself (exactly the operator of the block means, the solver's own field untouched), the
-mechanism the documentation draws from it (a point is relieved by about a third of the stress
-its own cell removes, so it must flow further), and, slow, the script end to end.
+eigenstrain operator sees the block's mean plastic strain; its ``averaged`` run gives each cell
+its block's mean return. These tests check the wrappings themselves (exactly the operator of the
+block means, the solver's own field untouched; the returns averaged in place), the mechanism
+the documentation draws from the first (a point is relieved by about a third of the stress its
+own cell removes, so it must flow further), and, slow, the script end to end.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ import numpy as np
 import pytest
 
 from sacflow.kernels.eigenstrain import HalfSpaceEigenstrain
+from sacflow.mechanics.return_mapping import ReturnResult
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "pipelines"))
 import press_flow_points as module  # noqa: E402  (a pipeline script; imports its sibling)
@@ -71,15 +73,56 @@ def test_a_point_seen_through_its_block_is_relieved_by_about_a_third(sampling):
     assert 0.25 < seen / own < 0.4
 
 
+class _FixedPoint:
+    """Stands in for the solver's fixed point: a return of given fields, counted."""
+
+    def __init__(self, same: bool):
+        rng = np.random.default_rng(7)
+        self.results = [ReturnResult(None, rng.normal(size=(4, 6, 3, 6)), rng.random((4, 6, 3)),
+                                     np.ones((4, 6, 3), dtype=bool), 1)
+                        for _ in range(1 if same else 2)]
+        self.calls: list[tuple] = []
+
+    def _return(self, *args):
+        self.calls.append(args)
+        return self.results[0], self.results[-1]
+
+
+@pytest.mark.parametrize("same", [True, False])
+def test_the_averaged_return_gives_each_cell_its_blocks_mean(same):
+    fixed_point = _FixedPoint(same)
+    before = [(r.plastic_strain_increment.copy(), r.equivalent_plastic_strain_increment.copy())
+              for r in fixed_point.results]
+    module.average_the_return(fixed_point)
+    ret, full = fixed_point._return("trial", "p", None, None)
+    assert fixed_point.calls == [("trial", "p", None, None)]
+    assert (ret is full) == same and ret is fixed_point.results[0]
+    for result, (strain, equivalent) in zip(fixed_point.results, before, strict=True):
+        np.testing.assert_allclose(result.plastic_strain_increment,
+                                   module.spread_block_mean(strain), rtol=1e-14)
+        np.testing.assert_allclose(result.equivalent_plastic_strain_increment,
+                                   module.spread_block_mean(equivalent), rtol=1e-14)
+
+
+def test_the_script_refuses_unknown_variants(capsys):
+    with pytest.raises(SystemExit):
+        module.main(["--variants", "coarse,finer"])
+    message = "--variants: finer: choose from coarse, points, averaged, fine"
+    assert message in capsys.readouterr().err
+
+
 @pytest.mark.slow
-def test_the_script_runs_the_three_variants_and_keeps_its_table(tmp_path, capsys):
+def test_the_script_runs_the_four_variants_and_keeps_its_table(tmp_path, capsys):
     table = tmp_path / "points.csv"
     argv = ["--cells", "24", "--layers", "8", "--increments", "4", "2", "--table", str(table)]
     module.main(argv)
     rows = {row["variant"]: row for row in csv.DictReader(table.open())}
-    assert list(rows) == ["coarse", "points", "fine"]
-    assert [int(rows[v]["nx"]) for v in rows] == [24, 48, 48]
-    assert [int(rows[v]["subcells"]) for v in rows] == [2, 1, 1]
+    assert list(rows) == ["coarse", "points", "averaged", "fine"]
+    assert [int(rows[v]["nx"]) for v in rows] == [24, 48, 48, 48]
+    assert [int(rows[v]["subcells"]) for v in rows] == [2, 1, 1, 1]
+    averaged = rows["averaged"]  # one plastic strain per block: its largest is a block's
+    assert float(averaged["max_plastic_strain"]) == pytest.approx(
+        float(averaged["max_plastic_strain_block_mean"]), rel=1e-12)
     points, fine = rows["points"], rows["fine"]
     # the points part: their largest εp far above their block means' and the fine cells'
     assert float(points["max_plastic_strain"]) > 2 * float(points["max_plastic_strain_block_mean"])

@@ -58,6 +58,7 @@ __all__ = [
     "refuse_existing_table",
     "summary_rows",
     "write_csv",
+    "write_runs_table",
     "write_figure",
 ]
 
@@ -318,6 +319,22 @@ def refuse_existing_table(path: Path | None, overwrite: bool) -> None:
     if not folder.is_dir() or not os.access(folder, os.W_OK | os.X_OK):
         raise SystemExit(f"error: cannot write the table {path}: {folder} is not a folder "
                          "this user can write; nothing was run. Give another --table")
+
+
+def write_runs_table(path: Path | None, rows: Sequence[Mapping[str, Any]],
+                     overwrite: bool = False) -> None:
+    """Write a study script's ``--table`` after its runs: one row each, the first's columns.
+
+    Nothing when ``path`` is None. :func:`refuse_existing_table` checked the path before the
+    runs; a table that appeared, or a folder that went, while they ran stops the script with
+    one line (``SystemExit``), the user's file unchanged.
+    """
+    if path is None:
+        return
+    try:
+        write_csv(path, rows, list(rows[0]), overwrite)
+    except SacflowError as exc:
+        raise SystemExit(f"error: {exc}") from None
 
 
 def write_csv(path: Path, rows: Sequence[Mapping[str, Any]], columns: Sequence[str],
