@@ -297,28 +297,30 @@ FLOW_POINTS = {"print_depth_refined": "print_depth", "peak_pressure": "peak_pres
 
 
 def press_flow_points(out: Path) -> dict[str, float]:
-    """``pipelines/press_flow_points.py``'s three runs (``data/press-flow-points.csv``): the
-    96² cells' values (``flow_points_fine_{stem}``), the 48² cells' and the points' relative to
-    them (``flow_points_{coarse,points}_{stem}``); the largest εp over the 48² cells' footprints
-    (``_max_eqps_coarse_cells``: the coarse run's cells, the others' 2 × 2 block means); each
-    run's plasticity iterations; and the largest εp of a point and of a block of the
-    ``points`` run (``flow_points_points_max_eqps_cell``, ``_block``); its iterations over the
-    96² cells' (``flow_points_iterations_ratio``)."""
-    rows = {row["variant"]: row for row in data_rows("press-flow-points.csv")}
+    """``pipelines/press_flow_points.py``'s four runs (``data/press-flow-points.csv`` and
+    ``-averaged.csv``): the 96² cells' values (``flow_points_fine_{stem}``), the others relative
+    to them (``flow_points_{coarse,points,averaged}_{stem}``); the largest εp over the 48²
+    cells' footprints (``_max_eqps_coarse_cells``: the coarse run's cells, the others' 2 × 2
+    block means); each run's plasticity iterations; the largest εp of a point and of a block
+    of the ``points`` run (``flow_points_points_max_eqps_cell``, ``_block``); its iterations
+    over the 96² cells' (``flow_points_iterations_ratio``)."""
+    rows = {row["variant"]: row for name in ("press-flow-points.csv",
+                                             "press-flow-points-averaged.csv")
+            for row in data_rows(name)}
     fine = rows["fine"]
     numbers: dict[str, float] = {}
     for quantity, stem in FLOW_POINTS.items():
         numbers[f"flow_points_fine_{stem}"] = float(fine[quantity])
-        for variant in ("coarse", "points"):
+        for variant in ("coarse", "points", "averaged"):
             numbers[f"flow_points_{variant}_{stem}"] = (float(rows[variant][quantity])
                                                         / float(fine[quantity]) - 1.0)
     # the largest εp over the 48² cells' footprints: the coarse run's own cells, the others'
     # 2 × 2 block means
     coarse_cells = {"coarse": float(rows["coarse"]["max_plastic_strain"]),
-                    "points": float(rows["points"]["max_plastic_strain_block_mean"]),
-                    "fine": float(fine["max_plastic_strain_block_mean"])}
+                    **{v: float(rows[v]["max_plastic_strain_block_mean"])
+                       for v in ("points", "averaged", "fine")}}
     numbers["flow_points_fine_max_eqps_coarse_cells"] = coarse_cells["fine"]
-    for variant in ("coarse", "points"):
+    for variant in ("coarse", "points", "averaged"):
         numbers[f"flow_points_{variant}_max_eqps_coarse_cells"] = (coarse_cells[variant]
                                                                    / coarse_cells["fine"] - 1.0)
     for variant, row in rows.items():
