@@ -9,14 +9,9 @@ import numpy as np
 import xarray as xr
 
 from sacflow.compare.plots import display_scale, plot
+from sacflow.storage.atomic_file import replace_durably
 
 __all__ = ["summary", "summary_numbers", "write"]
-
-
-def _replace_atomically(tmp: Path, target: Path) -> None:
-    with open(tmp, "rb+") as f:  # on disk before it becomes visible
-        os.fsync(f.fileno())
-    os.replace(tmp, target)
 
 
 def write(result: xr.Dataset, out_dir: str | Path, stem: str, **plot_options) -> tuple[Path, Path]:
@@ -50,7 +45,7 @@ def write(result: xr.Dataset, out_dir: str | Path, stem: str, **plot_options) ->
         result.to_netcdf(tmps[0], format="NETCDF4")
         fig.savefig(tmps[1], format="png", dpi=120)
         for tmp, target in zip(tmps, targets, strict=True):
-            _replace_atomically(tmp, target)
+            replace_durably(tmp, target)
     finally:
         for tmp in tmps:
             tmp.unlink(missing_ok=True)

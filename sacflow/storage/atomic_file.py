@@ -13,12 +13,19 @@ import os
 from collections.abc import Callable
 from pathlib import Path
 
-__all__ = ["temporary_name", "write_atomically"]
+__all__ = ["replace_durably", "temporary_name", "write_atomically"]
 
 
 def temporary_name(path: Path) -> Path:
     """Return the hidden sibling ``path`` is written under: ``.stem.<pid>.tmp.suffix``."""
     return path.with_name(f".{path.stem}.{os.getpid()}.tmp{path.suffix}")
+
+
+def replace_durably(tmp: Path, target: Path) -> None:
+    """Flush the whole file ``tmp`` to disk, then move it onto ``target`` (:func:`os.replace`)."""
+    with open(tmp, "rb+") as f:  # on disk before it becomes visible
+        os.fsync(f.fileno())
+    os.replace(tmp, target)
 
 
 def write_atomically(path: str | Path, write: Callable[[Path], object]) -> Path:
@@ -42,9 +49,7 @@ def write_atomically(path: str | Path, write: Callable[[Path], object]) -> Path:
     tmp = temporary_name(target)
     try:
         write(tmp)
-        with open(tmp, "rb+") as f:  # on disk before it becomes visible
-            os.fsync(f.fileno())
-        os.replace(tmp, target)
+        replace_durably(tmp, target)
     finally:
         tmp.unlink(missing_ok=True)
     return target
