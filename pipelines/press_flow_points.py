@@ -51,6 +51,7 @@ from sacflow.studies.convergence_table import (
     refuse_existing_table,
     write_runs_table,
 )
+from sacflow.studies.lateral_error_split import block_average
 
 #: The press's lateral window in Hertz radii (its config's ``grid.half_width``).
 WINDOW = 3.0
@@ -63,18 +64,9 @@ SHOWN = ("print_depth_refined", "peak_pressure", "max_plastic_strain_refined",
          "residual_s11_axis_refined_at_1.5a")
 
 
-def block_mean(field: np.ndarray, block: int = BLOCK) -> np.ndarray:
-    """Mean of ``field`` (n1, n2, ...) over lateral blocks of ``block`` × ``block`` cells."""
-    n1, n2 = field.shape[:2]
-    if n1 % block or n2 % block:
-        raise ValueError(f"{n1} × {n2} cells do not split into blocks of {block} × {block}")
-    blocks = field.reshape(n1 // block, block, n2 // block, block, *field.shape[2:])
-    return np.asarray(blocks.mean(axis=(1, 3)))
-
-
 def spread_block_mean(field: np.ndarray, block: int = BLOCK) -> np.ndarray:
     """``field`` with each block of ``block`` × ``block`` cells replaced by its mean."""
-    mean = block_mean(field, block)
+    mean = block_average(field, block)
     return np.ascontiguousarray(np.repeat(np.repeat(mean, block, axis=0), block, axis=1))
 
 
@@ -142,7 +134,7 @@ def run_variant(variant: str, case: Case) -> dict[str, Any]:
     even = strain.shape[0] % BLOCK == 0 and strain.shape[1] % BLOCK == 0
     return {"variant": variant, "nx": case.grid.nx, "layers": case.grid.nz,
             "subcells": case.solver.contact_subcells,
-            "max_plastic_strain_block_mean": (float(block_mean(strain).max()) if even
+            "max_plastic_strain_block_mean": (float(block_average(strain, BLOCK).max()) if even
                                               else float("nan")),
             "plasticity_iterations": sum(s.plasticity_iterations for s in states),
             "seconds": time.perf_counter() - start, **quantities}
