@@ -18,7 +18,11 @@ from numpy.testing import assert_allclose
 from sacflow.kernels.cell_average import check_sampling, sub_offsets, sub_points
 from sacflow.kernels.cuboid import SHEAR_WEIGHTS, cuboid_stress
 from sacflow.kernels.eigenstrain import HalfSpaceEigenstrain
-from sacflow.kernels.shear import surface_load_stress_coefficients
+from sacflow.kernels.shear import (
+    subcell_load_stress_coefficients,
+    surface_load_stress_coefficients,
+    traction_stress,
+)
 from sacflow.kernels.surface import rectangle_stress
 
 E, NU = 219e9, 0.3
@@ -122,6 +126,41 @@ def test_contact_stress_cell_mean_equals_love_averaged_by_hand():
             want = np.mean([rectangle_stress(*(x + np.array(p)), cell[0] / 2, cell[1] / 2, nu)
                             for p in sub_points(sampling, (*cell, dz))], axis=0)
             assert_allclose(got[k, :, a, b], want, rtol=1e-12, atol=1e-14)
+
+
+@pytest.mark.parametrize("sampling", [1, 2, 3])
+@pytest.mark.parametrize("traction", [None, (0.25, -0.1)])
+def test_sub_cell_and_cell_contact_coefficients_equal_love_averaged_by_hand(sampling, traction):
+    """The lattice of the sub-points (sacflow.kernels.surface.rectangle_stress_sampled) against
+    Love's rectangle and the traction's stresses point by point, at offsets of both signs."""
+    cell, dz, nu, subcells = (1.5e-6, 1.2e-6), 1.0e-6, 0.3, 2
+    depths = np.array([0.5, 2.5]) * dz
+    d1, d2 = np.array([0, -1, 3])[:, None], np.array([0, 2, -2])[None, :]
+    centres = (np.arange(subcells) + 0.5) / subcells - 0.5
+    sub = subcell_load_stress_coefficients(cell, subcells, depths, nu, traction, sampling, dz)
+    whole = surface_load_stress_coefficients(cell, depths, nu, traction, sampling, dz)
+    got_sub = sub(d1, d2).reshape(2, 6, subcells**2, 3, 3)
+    got_whole = whole(d1, d2).reshape(2, 6, 3, 3)
+    points = list(sub_points(sampling, (*cell, dz)))
+
+    def by_hand(x, half):
+        fields = [rectangle_stress(*(x + np.array(p)), *half, nu)
+                  + (0.0 if traction is None
+                     else traction_stress(*(x + np.array(p)), *half, nu, traction))
+                  for p in points]
+        return np.mean(fields, axis=0)
+
+    scale = np.abs(got_whole).max()
+    for k, z in enumerate(depths):
+        for a, b in ((0, 0), (1, 2), (2, 1)):
+            x = np.array([d1[a, 0] * cell[0], d2[0, b] * cell[1], z])
+            assert_allclose(got_whole[k, :, a, b], by_hand(x, (cell[0] / 2, cell[1] / 2)),
+                            rtol=0, atol=1e-12 * scale)
+            for channel in range(subcells**2):
+                o1, o2 = divmod(channel, subcells)
+                xs = x - np.array([centres[o1] * cell[0], centres[o2] * cell[1], 0.0])
+                want = by_hand(xs, (cell[0] / 4, cell[1] / 4))
+                assert_allclose(got_sub[k, :, channel, a, b], want, rtol=0, atol=1e-12 * scale)
 
 
 def test_sub_offsets_and_their_check():

@@ -31,7 +31,8 @@ import numpy as np
 
 __all__ = ["cell_mean", "check_sampling", "sub_offsets", "sub_points"]
 
-#: Largest number of points per axis (the kernel set-up costs ``sampling³`` evaluations).
+#: Largest number of points per axis (the kernel set-up evaluates ``sampling³`` times the
+#: closed forms of the centre values).
 MAX_SAMPLING = 8
 
 

@@ -33,7 +33,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from sacflow.kernels.cuboid import PARITY, checked_half_sizes, stiffness_matrix, stress_from_sums
-from sacflow.kernels.lattice import FoldedAxis
+from sacflow.kernels.lattice import FoldedAxis, SampledAxis
 
 __all__ = ["CuboidLattice", "corner_sum_coefficients"]
 
@@ -43,8 +43,13 @@ _FUNCTIONS = 15
 #: M(0,1) M(1,2) M(2,0) and their partners M(1,0) M(2,1) M(0,2).
 _SUMS = 18
 _M_PAIRS = ((0, 1), (1, 2), (2, 0))
-#: Planes of corner functions kept for reuse (consecutive offsets share one).
-_PLANE_CACHE = 4
+#: Calls of :meth:`CuboidLattice.folded_plane` whose planes of corner functions are kept for
+#: reuse: consecutive depth offsets share planes, and a caller may alternate two sequences (the
+#: surface traction's cuboid and its image).
+_CALLS_KEPT = 2
+#: Resolution of the planes' cache keys, in half sizes: depths that differ by less (the
+#: rounding of sums such as ``x3 + q + h``) are one plane of the lattice.
+_KEY_RESOLUTION = 2.0**-24
 
 
 def corner_sum_coefficients(nu: float, mu: float) -> np.ndarray:
@@ -98,6 +103,10 @@ class CuboidLattice:
         Half sizes of the cuboid [m].
     nu, mu : float
         Poisson ratio and shear modulus [Pa].
+    sub : (array_like, array_like), optional
+        Lateral offsets [m] of sub-points of each target (:meth:`mean_plane`): the lattice is
+        then that of the union of the sub-points ``x + q`` (:class:`~sacflow.kernels.lattice.
+        SampledAxis`), and :meth:`folded_plane` gives the values at their folded offsets.
 
     Notes
     -----
@@ -106,38 +115,55 @@ class CuboidLattice:
     """
 
     def __init__(self, x1: np.ndarray, x2: np.ndarray, half: Sequence[float], nu: float,
-                 mu: float):
+                 mu: float, sub: tuple[np.ndarray, np.ndarray] | None = None):
         half = checked_half_sizes(half, nu)
         self.scale = max(half)
         self.h = tuple(hh / self.scale for hh in half)
         self.nu, self.mu = float(nu), float(mu)
         x1 = np.asarray(x1, dtype=float).ravel() / self.scale
         x2 = np.asarray(x2, dtype=float).ravel() / self.scale
-        self._axes = (FoldedAxis(x1, self.h[0]), FoldedAxis(x2, self.h[1]))
+        self._sampled: tuple[SampledAxis, SampledAxis] | None = None
+        if sub is None:
+            self._axes = (FoldedAxis(x1, self.h[0]), FoldedAxis(x2, self.h[1]))
+        else:
+            self._sampled = (SampledAxis(x1, np.asarray(sub[0]) / self.scale, self.h[0]),
+                             SampledAxis(x2, np.asarray(sub[1]) / self.scale, self.h[1]))
+            self._axes = (self._sampled[0].axis, self._sampled[1].axis)
         # Corner sums → stress: coefficients (18, 36) of every (c, d) column.
         self._coefficients = corner_sum_coefficients(self.nu, self.mu).reshape(_SUMS, 36)
         self._free = stiffness_matrix(self.nu, self.mu).reshape(36)
-        self._planes: dict[float, np.ndarray] = {}
+        self._planes: dict[int, np.ndarray] = {}
+        self._recent: list[set[int]] = []
         self.shape = (x1.size, x2.size)
 
-    def _function_plane(self, y2: float) -> np.ndarray:
-        """Corner functions on the folded lateral lattice at lattice depth ``y2`` (cached)."""
-        plane = self._planes.get(y2)
-        if plane is None:
-            u0, u1 = self._axes[0].lattice, self._axes[1].lattice
-            plane = np.empty((_FUNCTIONS, u0.size, u1.size))
-            with np.errstate(divide="ignore", invalid="ignore"):
-                _corner_functions(u0, u1, y2, plane)
-            if len(self._planes) >= _PLANE_CACHE:
-                self._planes.pop(next(iter(self._planes)))
-            self._planes[y2] = plane
-        return plane
+    def _function_planes(self, depths: Sequence[float]) -> list[np.ndarray]:
+        """Corner functions on the folded lateral lattice at lattice depths ``depths``.
 
-    def _sums(self, x3: float) -> np.ndarray:
-        """Return the 18 corner sums at the folded lateral offsets and depth offset ``x3``."""
-        upper = self._function_plane(x3 + self.h[2])
-        lower = self._function_plane(x3 - self.h[2])
-        f = self._axes[1].difference(self._axes[0].difference(upper - lower, 1), 2)
+        Planes of the last :data:`_CALLS_KEPT` calls are reused, the others dropped; depths
+        closer than :data:`_KEY_RESOLUTION` (rounding) are one plane.
+        """
+        keys = [round(y2 / _KEY_RESOLUTION) for y2 in depths]
+        for key, y2 in zip(keys, depths, strict=True):
+            if key not in self._planes:
+                u0, u1 = self._axes[0].lattice, self._axes[1].lattice
+                plane = np.empty((_FUNCTIONS, u0.size, u1.size))
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    _corner_functions(u0, u1, y2, plane)
+                self._planes[key] = plane
+        self._recent = [*self._recent[1 - _CALLS_KEPT:], set(keys)]
+        kept = set().union(*self._recent)
+        planes = [self._planes[key] for key in keys]
+        self._planes = {key: plane for key, plane in self._planes.items() if key in kept}
+        return planes
+
+    def _sums(self, x3s: Sequence[float]) -> np.ndarray:
+        """Return the 18 corner sums at the folded lateral offsets, summed over depths ``x3s``."""
+        planes = self._function_planes([x3 + sign * self.h[2] for x3 in x3s for sign in (1, -1)])
+        delta = planes[0] - planes[1]
+        for upper, lower in zip(planes[2::2], planes[3::2], strict=True):
+            delta += upper
+            delta -= lower
+        f = self._axes[1].difference(self._axes[0].difference(delta, 1), 2)
         sums = np.empty((_SUMS, *f.shape[1:]))
         sums[:12] = f[:12]
         for n, (i, j) in enumerate(_M_PAIRS):
@@ -146,9 +172,12 @@ class CuboidLattice:
             sums[15 + n] = f[9 + k] - f[12 + i]
         return sums
 
-    def folded_plane(self, x3: float, columns: Sequence[tuple[int, int]] | None = None
-                     ) -> np.ndarray:
+    def folded_plane(self, x3: float, columns: Sequence[tuple[int, int]] | None = None,
+                     depths: Sequence[float] = (0.0,)) -> np.ndarray:
         """Columns ``(c, d)`` at the folded offsets ``|x1| × |x2|`` and depth offset ``x3`` [m].
+
+        With ``depths`` [m], the mean over the depth offsets ``x3 + depths`` (one set of corner
+        sums: the closed form is linear in them).
 
         Returns
         -------
@@ -158,16 +187,39 @@ class CuboidLattice:
         """
         index = (np.arange(36) if columns is None
                  else np.array([6 * c + d for c, d in columns], dtype=np.intp))
-        x3s = float(x3) / self.scale
+        x3s = [(float(x3) + float(p)) / self.scale for p in depths]
         sums = self._sums(x3s)
         a, b = sums.shape[1:]
         out: np.ndarray = (sums.reshape(_SUMS, a * b).T
                            @ self._coefficients[:, index]).reshape(a, b, -1)
-        if abs(x3s) < self.h[2]:
+        inside_depths = sum(abs(x) < self.h[2] for x in x3s)
+        if inside_depths:
             inside = ((self._axes[0].folded < self.h[0])[:, None]
                       & (self._axes[1].folded < self.h[1])[None, :])
-            out[inside] -= self._free[index]
+            out[inside] -= inside_depths * self._free[index]
+        if len(x3s) > 1:
+            out /= len(x3s)
         return out
+
+    def mean_plane(self, x3: float, columns: Sequence[tuple[int, int]],
+                   depths: Sequence[float] = (0.0,)) -> np.ndarray:
+        """Mean of the columns over the sub-points ``(x1 + q1, x2 + q2, x3 + depths)`` [m].
+
+        Needs the lattice built with ``sub``. The values at the union's folded offsets, taken
+        once, are averaged along each axis with the columns' parities
+        (:meth:`~sacflow.kernels.lattice.SampledAxis.mean`).
+
+        Returns
+        -------
+        ndarray (len(x1), len(x2), len(columns))
+        """
+        if self._sampled is None:
+            raise ValueError("mean_plane needs a CuboidLattice built with sub-points (sub=)")
+        folded = self.folded_plane(x3, columns, depths)
+        odd = [np.array([PARITY[axis, c] * PARITY[axis, d] < 0 for c, d in columns])
+               for axis in (0, 1)]
+        along1 = self._sampled[0].mean(folded, 0, odd[0])
+        return self._sampled[1].mean(along1, 1, odd[1])
 
     def unfold_signs(self, columns: Sequence[tuple[int, int]]) -> np.ndarray:
         """Signs (len(x1), len(x2), len(columns)) that mirror folded columns onto ``x1 × x2``.

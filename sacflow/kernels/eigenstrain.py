@@ -126,8 +126,8 @@ class HalfSpaceEigenstrain:
     stress_sampling : int, optional
         Points per axis of each cell at which the stress is averaged
         (:mod:`sacflow.kernels.cell_average`): 1 (default) the centre value, more the cell
-        mean (energy-consistent; the kernel set-up costs ``stress_sampling³`` times more, an
-        application the same).
+        mean (energy-consistent; the kernel set-up evaluates ``stress_sampling³`` times more
+        closed forms, on one corner lattice of the sub-points; an application costs the same).
     traction_quadrature : bool, optional
         Add the part of the surface-traction correction that centre sampling misses near the
         surface (:class:`~sacflow.kernels.traction_stencil.TractionStencil`); needs

@@ -13,6 +13,10 @@ With ``sampling`` > 1 every stress kernel (pairs and correction) is the mean ove
 ``sampling³`` sub-cell centres of the target cell and the surface traction the mean over the
 surface cell's ``sampling²`` sub-cell centres (:mod:`sacflow.kernels.cell_average`): the
 operator gives cell-averaged stresses; ``sampling = 1`` (the default) samples the centres.
+The sub-points of every target form one lattice of corners (for two points per axis, the odd
+multiples of a quarter cell), evaluated once and averaged on its folded offsets
+(:class:`~sacflow.kernels.lattice.SampledAxis`); the corner sums of the depth sub-points are
+added before the stresses are formed from them (the closed form is linear in them).
 """
 
 from __future__ import annotations
@@ -22,13 +26,13 @@ from collections.abc import Sequence
 import numpy as np
 import scipy.fft
 
-from sacflow.kernels.cell_average import cell_mean, sub_points
+from sacflow.kernels.cell_average import sub_offsets
 from sacflow.kernels.cuboid import PARITY, SHEAR_WEIGHTS
 from sacflow.kernels.cuboid_lattice import CuboidLattice
 from sacflow.kernels.eigenstrain_memory import DEPTH_BLOCK_BYTES, padded_lengths
 from sacflow.kernels.folded_fft import folded_spectra
 from sacflow.kernels.residual_displacement import cuboid_surface_displacement
-from sacflow.kernels.surface import rectangle_stress_grid
+from sacflow.kernels.surface import rectangle_stress_grid, rectangle_stress_sampled
 from sacflow.machine.threads import contiguous_ranges, in_threads, single_threaded_blas
 
 __all__ = [
@@ -164,9 +168,10 @@ def kernel_spectra(shape: Sequence[int], spacing: Sequence[float], nu: float, mu
 class SampledLattices:
     """Cuboid stresses at whole-cell offsets, averaged over sub-cell points of the target.
 
-    One :class:`~sacflow.kernels.cuboid_lattice.CuboidLattice` per lateral sub-point (its
-    offsets ``k d + ξ``), each evaluated at the depth sub-points; with ``sampling = 1`` the
-    centre lattice alone (folded offsets: the values at ``k d``, ``k ≥ 0``).
+    One :class:`~sacflow.kernels.cuboid_lattice.CuboidLattice` on the union of the lateral
+    sub-points ``k d + ξ`` (averaged on its folded offsets with the kernels' parities), its
+    corner sums summed over the depth sub-points; with ``sampling = 1`` the centre lattice
+    (folded offsets: the values at ``k d``, ``k ≥ 0``).
     """
 
     def __init__(self, x1: np.ndarray, x2: np.ndarray, spacing: Sequence[float], nu: float,
@@ -174,20 +179,18 @@ class SampledLattices:
         d1, d2, d3 = spacing
         half = (d1 / 2, d2 / 2, d3 / 2)
         self.sampling = sampling
-        self.lateral = [(CuboidLattice(x1 + p1, x2 + p2, half, nu, mu))
-                        for p1, p2 in sub_points(sampling, (d1, d2))]
-        self.depths = ([p[0] for p in sub_points(sampling, (d3,))] if depth_points else [0.0])
+        offsets = sub_offsets(sampling)
+        sub = (offsets * d1, offsets * d2) if sampling > 1 else None
+        self.lattice = CuboidLattice(x1, x2, half, nu, mu, sub=sub)
+        self.depths = tuple(offsets * d3) if depth_points else (0.0,)
 
     def plane(self, x3: float, columns: Sequence[tuple[int, int]] | None = None) -> np.ndarray:
         """Mean of the columns over the sub-points, (len(x1), len(x2), columns), at ``x3``."""
-        if self.sampling == 1 and len(self.depths) == 1:
-            return self.lateral[0].folded_plane(x3, columns)
+        if self.sampling == 1:
+            return self.lattice.folded_plane(x3, columns, self.depths)
         columns = ([(c, d) for c in range(6) for d in range(6)] if columns is None
                    else list(columns))
-        total = sum(np.moveaxis(lattice.plane(x3 + p3, columns), 0, -1)
-                    for lattice in self.lateral for p3 in self.depths)
-        mean: np.ndarray = np.asarray(total) / (len(self.lateral) * len(self.depths))
-        return mean
+        return self.lattice.mean_plane(x3, columns, self.depths)
 
 
 def pair_spectra(shape: Sequence[int], spacing: Sequence[float], nu: float, mu: float,
@@ -314,9 +317,11 @@ def cell_mean_love_stress(x1: np.ndarray, x2: np.ndarray, depth: float,
     """Love's stress of a unit pressure on a surface cell, at ``x1 × x2`` and ``depth`` [m].
 
     :func:`~sacflow.kernels.surface.rectangle_stress_grid` at the centre (``sampling = 1``) or
-    its mean over the target cell's ``sampling³`` sub-cell centres; (len(x1), len(x2), 6).
+    its mean over the target cell's ``sampling³`` sub-cell centres
+    (:func:`~sacflow.kernels.surface.rectangle_stress_sampled`); (len(x1), len(x2), 6).
     """
     d1, d2, d3 = spacing
-    return cell_mean(lambda p1, p2, p3: rectangle_stress_grid(x1 + p1, x2 + p2, depth + p3,
-                                                              d1 / 2, d2 / 2, nu),
-                     sampling, (d1, d2, d3))
+    if sampling == 1:
+        return rectangle_stress_grid(x1, x2, depth, d1 / 2, d2 / 2, nu)
+    q = sub_offsets(sampling)
+    return rectangle_stress_sampled(x1, x2, depth + q * d3, (q * d1, q * d2), d1 / 2, d2 / 2, nu)

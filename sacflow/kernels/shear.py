@@ -259,26 +259,28 @@ def surface_load_stress_coefficients(
     of the target cell (layers ``thickness`` [m] thick, :mod:`sacflow.kernels.cell_average`),
     to pair with the cell-averaged residual stress.
     """
-    from sacflow.kernels.cell_average import cell_mean
-    from sacflow.kernels.surface import rectangle_stress_grid
+    from sacflow.kernels.cell_average import cell_mean, sub_offsets
+    from sacflow.kernels.surface import rectangle_stress_grid, rectangle_stress_sampled
 
     dx1, dx2 = cell
     h1, h2 = dx1 / 2, dx2 / 2
     depths = np.asarray(depths, dtype=float)
-
-    def at_point(d1: np.ndarray, d2: np.ndarray, depth: float) -> np.ndarray:
-        x1, x2 = d1 * dx1, d2 * dx2
-        s = rectangle_stress_grid(x1.ravel(), x2.ravel(), depth, h1, h2, nu)
-        if traction is not None:
-            s += traction_stress(x1, x2, depth, h1, h2, nu, traction)
-        return s
+    q = sub_offsets(sampling)
 
     def coefficients(d1: np.ndarray, d2: np.ndarray) -> np.ndarray:
         out = np.empty((depths.size, 6, *np.broadcast_shapes(d1.shape, d2.shape)))
         for k, depth in enumerate(depths):
-            s = cell_mean(lambda p1, p2, p3, depth=float(depth):
-                          at_point(d1 + p1 / dx1, d2 + p2 / dx2, depth + p3),
-                          sampling, (dx1, dx2, thickness))
+            x1, x2 = d1.ravel() * dx1, d2.ravel() * dx2
+            # Love's rectangle at the centres, or at the sub-points of every target cell on
+            # one corner lattice
+            s = (rectangle_stress_grid(x1, x2, depth, h1, h2, nu) if sampling == 1 else
+                 rectangle_stress_sampled(x1, x2, depth + q * thickness, (q * dx1, q * dx2),
+                                          h1, h2, nu))
+            if traction is not None:
+                s = s + cell_mean(lambda p1, p2, p3, depth=float(depth):
+                                  traction_stress(d1 * dx1 + p1, d2 * dx2 + p2, depth + p3,
+                                                  h1, h2, nu, traction),
+                                  sampling, (dx1, dx2, thickness))
             out[k] = np.moveaxis(s, -1, 0)
         return out.reshape(6 * depths.size, 1, *out.shape[2:])
 
@@ -302,8 +304,8 @@ def subcell_load_stress_coefficients(
     With ``only``, the sub-cells (o1, o2) listed, in that order, as the input channels
     (:class:`sacflow.kernels.subcell_stress.MirroredSubcellStress` keeps a quarter of them).
     """
-    from sacflow.kernels.cell_average import cell_mean
-    from sacflow.kernels.surface import rectangle_stress
+    from sacflow.kernels.cell_average import cell_mean, sub_offsets
+    from sacflow.kernels.surface import rectangle_stress_sampled
 
     dx1, dx2 = cell
     half1, half2 = dx1 / (2 * subcells), dx2 / (2 * subcells)
@@ -311,12 +313,7 @@ def subcell_load_stress_coefficients(
     depths = np.asarray(depths, dtype=float)
     chosen = list(only) if only is not None else [(o1, o2) for o1 in range(subcells)
                                                   for o2 in range(subcells)]
-
-    def at_point(x1: np.ndarray, x2: np.ndarray, depth: float) -> np.ndarray:
-        s = rectangle_stress(x1, x2, depth, half1, half2, nu)
-        if traction is not None:
-            s = s + traction_stress(x1, x2, depth, half1, half2, nu, traction)
-        return s
+    q = sub_offsets(sampling)
 
     def coefficients(d1: np.ndarray, d2: np.ndarray) -> np.ndarray:
         shape = np.broadcast_shapes(d1.shape, d2.shape)
@@ -324,10 +321,15 @@ def subcell_load_stress_coefficients(
         for k, depth in enumerate(depths):
             for channel, (o1, o2) in enumerate(chosen):
                 x1, x2 = (d1 - centres[o1]) * dx1, (d2 - centres[o2]) * dx2
-                s = cell_mean(lambda p1, p2, p3, x1=x1, x2=x2, depth=float(depth):
-                              at_point(x1 + p1, x2 + p2, depth + p3),
-                              sampling, (dx1, dx2, thickness))
-                out[k, :, channel] = np.moveaxis(np.broadcast_to(s, (*shape, 6)), -1, 0)
+                # the sub-cell's rectangle at the target cells' sub-points, on one lattice
+                s = rectangle_stress_sampled(x1.ravel(), x2.ravel(), depth + q * thickness,
+                                             (q * dx1, q * dx2), half1, half2, nu)
+                if traction is not None:
+                    s = s + cell_mean(lambda p1, p2, p3, x1=x1, x2=x2, depth=float(depth):
+                                      traction_stress(x1 + p1, x2 + p2, depth + p3, half1,
+                                                      half2, nu, traction),
+                                      sampling, (dx1, dx2, thickness))
+                out[k, :, channel] = np.moveaxis(s, -1, 0)
         return out.reshape(6 * depths.size, len(chosen), *shape)
 
     return coefficients

@@ -83,6 +83,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from sacflow.kernels.lattice import FoldedAxis
 from sacflow.kernels.load_geometry import CORNERS, as_float, point_force, rectangle_points, safe_div
 
 __all__ = [
@@ -237,16 +238,9 @@ def rectangle_stress_grid(x1: ArrayLike, x2: ArrayLike, x3: float, half1: float,
         As :func:`rectangle_stress`.
     """
     from sacflow.kernels.cuboid import PARITY
-    from sacflow.kernels.lattice import FoldedAxis
 
-    z = float(x3)
-    if not z > 0.0:
-        raise ValueError(f"rectangle_stress_grid needs a depth > 0, got {z}")
     a1, a2 = FoldedAxis(np.ravel(x1), float(half1)), FoldedAxis(np.ravel(x2), float(half2))
-    terms = _rectangle_corner_terms(a1.lattice[:, None], a2.lattice[None, :], np.float64(z))
-    d = {key: a2.difference(a1.difference(term, 0), 1) for key, term in terms.items()}
-    d["p33"] = -(d["p11"] + d["p22"])  # φ1 is harmonic
-    folded = _stress_from_potentials(d, np.asarray(z), nu)
+    folded = _folded_rectangle_stress(a1, a2, x3, nu)
     out = a2.unfold(a1.unfold(folded, 0), 1)
     for c in range(6):  # a stress component's parity along x1 and x2 (12, 13, 23 odd)
         if PARITY[0, c] < 0:
@@ -254,6 +248,48 @@ def rectangle_stress_grid(x1: ArrayLike, x2: ArrayLike, x3: float, half1: float,
         if PARITY[1, c] < 0:
             out[..., c] *= a2.sign[None, :]
     return out
+
+
+def rectangle_stress_sampled(x1: ArrayLike, x2: ArrayLike, x3: ArrayLike,
+                             sub: tuple[ArrayLike, ArrayLike], half1: float, half2: float,
+                             nu: float) -> NDArray[np.float64]:
+    """Mean of :func:`rectangle_stress` over sub-points, on the grid ``x1 × x2``.
+
+    The mean over the points ``(x1 + q1, x2 + q2, z)`` for every ``q1`` in ``sub[0]``, ``q2`` in
+    ``sub[1]`` and depth ``z`` in ``x3`` (all [m]): a cell-averaged coefficient
+    (:mod:`sacflow.kernels.cell_average`). The sub-points of all targets share one corner
+    lattice (:class:`~sacflow.kernels.lattice.SampledAxis`), evaluated once per depth; the
+    mean is taken on the folded values, each component with its parity.
+
+    Returns
+    -------
+    ndarray, shape (len(x1), len(x2), 6)
+        As :func:`rectangle_stress`.
+    """
+    from sacflow.kernels.cuboid import PARITY
+    from sacflow.kernels.lattice import SampledAxis
+
+    s1 = SampledAxis(np.ravel(x1), np.ravel(sub[0]), float(half1))
+    s2 = SampledAxis(np.ravel(x2), np.ravel(sub[1]), float(half2))
+    depths = np.ravel(x3)
+    folded = _folded_rectangle_stress(s1.axis, s2.axis, float(depths[0]), nu)
+    for z in depths[1:]:
+        folded += _folded_rectangle_stress(s1.axis, s2.axis, float(z), nu)
+    folded /= depths.size
+    along1 = s1.mean(folded, 0, PARITY[0] < 0)
+    return s2.mean(along1, 1, PARITY[1] < 0)
+
+
+def _folded_rectangle_stress(a1: FoldedAxis, a2: FoldedAxis, x3: float,
+                             nu: float) -> NDArray[np.float64]:
+    """:func:`rectangle_stress` at the folded offsets ``a1.folded × a2.folded``, depth ``x3``."""
+    z = float(x3)
+    if not z > 0.0:
+        raise ValueError(f"rectangle_stress_grid needs a depth > 0, got {z}")
+    terms = _rectangle_corner_terms(a1.lattice[:, None], a2.lattice[None, :], np.float64(z))
+    d = {key: a2.difference(a1.difference(term, 0), 1) for key, term in terms.items()}
+    d["p33"] = -(d["p11"] + d["p22"])  # φ1 is harmonic
+    return _stress_from_potentials(d, np.asarray(z), nu)
 
 
 def _stress_from_potentials(
