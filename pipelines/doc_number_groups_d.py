@@ -303,7 +303,11 @@ def press_flow_points(out: Path) -> dict[str, float]:
     cells' footprints (``_max_eqps_coarse_cells``: the coarse run's cells, the others' 2 × 2
     block means); each run's plasticity iterations; the largest εp of a point and of a block
     of the ``points`` run (``flow_points_points_max_eqps_cell``, ``_block``); its iterations
-    over the 96² cells' (``flow_points_iterations_ratio``)."""
+    over the 96² cells' (``flow_points_iterations_ratio``). The ``averaged`` run's σ11 on the
+    axis at 0.5 a and 1.5 a as it reads it and read through the 48² cells' operator
+    (``flow_points_read_{own,coarse}_s11_{depth}``, ``data/press-flow-points-averaged-read.csv``),
+    their difference (``_reading_``), and at 0.5 a its distance from the 96² cells' value split
+    into the 48² cells' own error (``_coarse_error_``) and that of the strain (``_strain_``)."""
     rows = {row["variant"]: row for name in ("press-flow-points.csv",
                                              "press-flow-points-averaged.csv")
             for row in data_rows(name)}
@@ -329,6 +333,22 @@ def press_flow_points(out: Path) -> dict[str, float]:
     numbers["flow_points_points_max_eqps_block"] = coarse_cells["points"]
     numbers["flow_points_iterations_ratio"] = (numbers["flow_points_points_iterations"]
                                                / numbers["flow_points_fine_iterations"])
+    # the averaged run's σ11 on the axis read through the 48² cells' operator
+    # (data/press-flow-points-averaged-read.csv), split against the fine and coarse runs
+    (read,) = data_rows("press-flow-points-averaged-read.csv")
+    for depth in ("0.5a", "1.5a"):
+        own = float(read[f"residual_s11_axis_refined_at_{depth}"])
+        coarse_read = float(read[f"coarse_read_s11_axis_refined_at_{depth}"])
+        numbers[f"flow_points_read_own_s11_{depth}"] = own
+        numbers[f"flow_points_read_coarse_s11_{depth}"] = coarse_read
+        numbers[f"flow_points_read_reading_s11_{depth}"] = own - coarse_read
+    fine_s11 = float(fine["residual_s11_axis_refined_at_0.5a"])
+    coarse_s11 = float(rows["coarse"]["residual_s11_axis_refined_at_0.5a"])
+    numbers["flow_points_read_distance_s11_0.5a"] = (numbers["flow_points_read_own_s11_0.5a"]
+                                                     - fine_s11)
+    numbers["flow_points_read_coarse_error_s11_0.5a"] = coarse_s11 - fine_s11
+    numbers["flow_points_read_strain_s11_0.5a"] = (numbers["flow_points_read_coarse_s11_0.5a"]
+                                                   - coarse_s11)
     return numbers
 
 

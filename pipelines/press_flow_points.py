@@ -1,7 +1,7 @@
 """Points of flow without cells of their own: is the press's lateral error the flow's sampling?
 
 ``python pipelines/press_flow_points.py [--cells N] [--layers L] [--increments LOAD UNLOAD]
-[--table CSV [--overwrite]]``
+[--variants V,...] [--read-by-coarse-cells] [--table CSV [--overwrite]]``
 
 The press's lateral error (docs/convergence.md, "What is left of the press's error") could be
 that of computing the flow at one point per cell while the cell mean already spreads each cell's
@@ -29,6 +29,9 @@ points' plastic strains part from each other with nothing to stop them. ``averag
 consistent form of more points of flow per cell unknown. ``--variants`` runs a subset. The
 table gives each run's quantities (:func:`sacflow.studies.convergence.measure`), the largest
 block mean of εp over 2 × 2 cells, the plastic iterations and the time.
+``--read-by-coarse-cells`` adds, for the fine-lattice variants, the residual σ11 on the axis of
+the run's plastic strain averaged over each block and read through the N² cells' operator: how
+much of a difference from ``coarse`` is the fine cells' reading, and how much the strain.
 """
 
 from __future__ import annotations
@@ -51,7 +54,7 @@ from sacflow.studies.convergence_table import (
     refuse_existing_table,
     write_runs_table,
 )
-from sacflow.studies.lateral_error_split import block_average
+from sacflow.studies.lateral_error_split import axis_s11, block_average
 
 #: The press's lateral window in Hertz radii (its config's ``grid.half_width``).
 WINDOW = 3.0
@@ -118,8 +121,32 @@ def variant_case(variant: str, cells: int, layers: int, increments: tuple[int, i
     return case_for(BLOCK * cells, layers, increments, WINDOW)
 
 
-def run_variant(variant: str, case: Case) -> dict[str, Any]:
-    """Run ``case`` as ``variant`` and return its row of the table."""
+def read_by_coarse_cells(sim: Any, coarse: Any, axis: tuple[float, float],
+                         contact_radius: float) -> dict[str, float]:
+    """σ11 on the axis of ``sim``'s plastic strain averaged over blocks, through ``coarse``.
+
+    ``coarse`` is the ``coarse`` variant's simulation (set up, not run): its eigenstrain
+    operator turns the 2 × 2 block means of ``sim``'s final plastic strain into residual stress,
+    read on the axis as the study reads it (:func:`sacflow.studies.lateral_error_split.axis_s11`)
+    at :data:`~sacflow.studies.convergence.PROFILE_DEPTHS`. Against the run's own values it
+    separates how the fine cells read a plastic strain from what that strain is.
+    """
+    from sacflow.studies.convergence import PROFILE_DEPTHS
+
+    blocks = block_average(np.asarray(sim.plastic_strain, dtype=float), BLOCK)
+    stress = coarse.operators.eigenstrain.residual_stress(blocks)
+    coords = (coarse.coords.x1, coarse.coords.x2, coarse.coords.x3)
+    values = axis_s11(stress, coords, axis, [d * contact_radius for d in PROFILE_DEPTHS])
+    return {f"coarse_read_s11_axis_refined_at_{d:g}a": value
+            for d, value in zip(PROFILE_DEPTHS, values.values(), strict=True)}
+
+
+def run_variant(variant: str, case: Case, coarse: Any = None) -> dict[str, Any]:
+    """Run ``case`` as ``variant`` and return its row of the table.
+
+    With ``coarse`` (the ``coarse`` variant's simulation, set up) a run on the fine lattice
+    also gets :func:`read_by_coarse_cells`'s columns.
+    """
     from sacflow.studies.convergence import measure
 
     start = time.perf_counter()
@@ -132,12 +159,17 @@ def run_variant(variant: str, case: Case) -> dict[str, Any]:
     quantities, _ = measure(sim, states, case.hertz().a)
     strain = np.asarray(sim.equivalent_plastic_strain, dtype=float)
     even = strain.shape[0] % BLOCK == 0 and strain.shape[1] % BLOCK == 0
+    seconds = time.perf_counter() - start
+    read = {}
+    if coarse is not None and variant != "coarse":
+        top = max(states, key=lambda s: s.load)
+        read = read_by_coarse_cells(sim, coarse, (top.load_x1, top.load_x2), case.hertz().a)
     return {"variant": variant, "nx": case.grid.nx, "layers": case.grid.nz,
             "subcells": case.solver.contact_subcells,
             "max_plastic_strain_block_mean": (float(block_average(strain, BLOCK).max()) if even
                                               else float("nan")),
             "plasticity_iterations": sum(s.plasticity_iterations for s in states),
-            "seconds": time.perf_counter() - start, **quantities}
+            "seconds": seconds, **quantities, **read}
 
 
 def parse(argv: list[str]) -> argparse.Namespace:
@@ -150,6 +182,10 @@ def parse(argv: list[str]) -> argparse.Namespace:
                         metavar=("LOAD", "UNLOAD"), help="load and unload increments (20 6)")
     parser.add_argument("--variants", default=",".join(VARIANTS),
                         help=f"comma-separated, of {', '.join(VARIANTS)} (all)")
+    parser.add_argument("--read-by-coarse-cells", action="store_true",
+                        help="also read each fine run's block-mean plastic strain through the "
+                             "coarse cells' operator (columns coarse_read_s11_...; a table "
+                             "only of fine-lattice variants)")
     add_table_arguments(parser)
     args = parser.parse_args(argv)
     args.variants = [v.strip() for v in args.variants.split(",") if v.strip()]
@@ -169,9 +205,14 @@ def main(argv: list[str]) -> None:
         cases = [variant_case(v, args.cells, args.layers, increments) for v in args.variants]
     except SacflowError as exc:
         raise SystemExit(f"error: {exc}") from None
+    if args.read_by_coarse_cells and "coarse" in args.variants:
+        raise SystemExit("error: --read-by-coarse-cells reads the fine-lattice variants: "
+                         "leave coarse out of --variants")
+    coarse = (simulation_for(variant_case("coarse", args.cells, args.layers, increments))
+              if args.read_by_coarse_cells else None)
     rows = []
     for variant, case in zip(args.variants, cases, strict=True):
-        row = run_variant(variant, case)
+        row = run_variant(variant, case, coarse)
         rows.append(row)
         shown = ", ".join(f"{name} {row[name]:.6g}" for name in SHOWN)
         print(f"{variant}: {row['nx']}² × {row['layers']}, {row['plasticity_iterations']} "

@@ -105,6 +105,37 @@ def test_the_averaged_return_gives_each_cell_its_blocks_mean(same):
                                    module.spread_block_mean(equivalent), rtol=1e-14)
 
 
+def test_the_coarse_reading_sees_each_blocks_mean():
+    """read_by_coarse_cells reads the block means: a strain that varies inside the blocks reads
+    as its blocks' uniform spread does, and the columns name the study's profile depths."""
+    from types import SimpleNamespace
+
+    from sacflow.studies.convergence import PROFILE_DEPTHS
+
+    coarse_shape = (4, 4, 8)
+    eigen = HalfSpaceEigenstrain(coarse_shape, (2e-6, 2e-6, 1e-6), E, NU, threads=1)
+    coords = SimpleNamespace(x1=(np.arange(4) - 1.5) * 2e-6, x2=(np.arange(4) - 1.5) * 2e-6,
+                             x3=(np.arange(8) + 0.5) * 1e-6)
+    coarse = SimpleNamespace(operators=SimpleNamespace(eigenstrain=eigen), coords=coords)
+    strain = np.random.default_rng(5).standard_normal((8, 8, 8, 6)) * 1e-3
+    spread = module.spread_block_mean(strain)
+    radius = 2e-6
+    got = module.read_by_coarse_cells(SimpleNamespace(plastic_strain=strain), coarse, (0.0, 0.0),
+                                      radius)
+    want = module.read_by_coarse_cells(SimpleNamespace(plastic_strain=spread), coarse,
+                                       (0.0, 0.0), radius)
+    assert list(got) == [f"coarse_read_s11_axis_refined_at_{d:g}a" for d in PROFILE_DEPTHS]
+    inside = [k for k, d in zip(got, PROFILE_DEPTHS, strict=True) if 0.5e-6 <= d * radius <= 7.5e-6]
+    assert inside and all(np.isfinite(got[k]) and got[k] == pytest.approx(want[k], rel=1e-12)
+                          for k in inside)
+    assert not np.allclose(strain, spread)  # the strain did vary inside the blocks
+
+
+def test_the_coarse_reading_refuses_the_coarse_variant():
+    with pytest.raises(SystemExit, match="leave coarse out of --variants"):
+        module.main(["--variants", "coarse,averaged", "--read-by-coarse-cells"])
+
+
 def test_the_script_refuses_unknown_variants(capsys):
     with pytest.raises(SystemExit):
         module.main(["--variants", "coarse,finer"])
@@ -134,3 +165,15 @@ def test_the_script_runs_the_four_variants_and_keeps_its_table(tmp_path, capsys)
         module.main(argv)
     assert table.read_bytes() == before
     assert "points: 48²" in capsys.readouterr().out
+
+
+@pytest.mark.slow
+def test_the_script_reads_a_fine_run_through_the_coarse_cells(tmp_path):
+    table = tmp_path / "read.csv"
+    module.main(["--cells", "24", "--layers", "8", "--increments", "4", "2", "--variants",
+                 "averaged", "--read-by-coarse-cells", "--table", str(table)])
+    (row,) = csv.DictReader(table.open())
+    own, read = (float(row[f"{name}_at_1.5a"]) for name in
+                 ("residual_s11_axis_refined", "coarse_read_s11_axis_refined"))
+    # the same plastic strain read on coarser cells: near, not the same
+    assert own != read and read == pytest.approx(own, rel=0.1)
