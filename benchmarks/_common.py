@@ -69,6 +69,33 @@ def hertz_step_case(n: int, scheme: str = "coupled", hardening: str = "mild",
     }
 
 
+def time_eigenstrain_builds() -> dict[str, float]:
+    """Time every eigenstrain operator built from now on in this process; return the tally.
+
+    ``HalfSpaceEigenstrain.__init__`` is wrapped so that ``tally["eigenstrain_s"]`` accumulates
+    the wall time of the outermost builds only (the traction beyond the box builds a second
+    operator inside the first: counted once).
+    """
+    from sacflow.kernels import eigenstrain
+
+    tally = {"eigenstrain_s": 0.0}
+    depth = [0]
+    build = eigenstrain.HalfSpaceEigenstrain.__init__
+
+    def timed_build(self, *args, **kwargs):
+        depth[0] += 1
+        t = time.perf_counter()
+        try:
+            build(self, *args, **kwargs)
+        finally:
+            depth[0] -= 1
+        if not depth[0]:
+            tally["eigenstrain_s"] += time.perf_counter() - t
+
+    eigenstrain.HalfSpaceEigenstrain.__init__ = timed_build
+    return tally
+
+
 def timed(func: Callable[[], Any], repeat: int = 3) -> tuple[float, Any]:
     """Best wall time of ``repeat`` calls of ``func`` and the last result."""
     best, out = float("inf"), None

@@ -16,7 +16,7 @@ import statistics
 import tempfile
 import time
 
-from _common import ROOT, emit, isolated
+from _common import ROOT, emit, isolated, time_eigenstrain_builds
 
 DEFAULT_CONFIGS = ("pipelines/dent-from-indentation-press.toml",
                    "configs/nanoindentation-linear-650mN.toml",
@@ -31,24 +31,9 @@ def cold_setup(config: str) -> dict:
 
         tune_malloc()  # the process allocates as `sacflow run` does
         from sacflow.config.solver_inputs import simulation_for
-        from sacflow.kernels import eigenstrain
         from sacflow.storage.case_file import load_case
 
-        spent = {"eigenstrain_s": 0.0, "depth": 0}
-        build = eigenstrain.HalfSpaceEigenstrain.__init__
-
-        def timed_build(self, *args, **kwargs):
-            # the outermost operator only: the traction beyond the box builds one inside it
-            spent["depth"] += 1
-            t = time.perf_counter()
-            try:
-                build(self, *args, **kwargs)
-            finally:
-                spent["depth"] -= 1
-            if not spent["depth"]:
-                spent["eigenstrain_s"] += time.perf_counter() - t
-
-        eigenstrain.HalfSpaceEigenstrain.__init__ = timed_build
+        spent = time_eigenstrain_builds()
         case = load_case(ROOT / config)
         t0 = time.perf_counter()
         simulation_for(case)
@@ -69,6 +54,11 @@ def main(argv: list[str] | None = None) -> None:
                         help="case files, relative to the repository root")
     parser.add_argument("--repeat", type=int, default=3, help="rounds of runs (default 3)")
     args = parser.parse_args(argv)
+    missing = [c for c in args.configs if not (ROOT / c).is_file()]
+    if missing:
+        parser.error(f"no case file {', '.join(missing)} under {ROOT}")
+    if args.repeat < 1:
+        parser.error(f"--repeat must be at least 1, got {args.repeat}")
     results = [isolated(cold_setup, config) for _ in range(args.repeat)
                for config in args.configs]
     medians = {}

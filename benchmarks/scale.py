@@ -34,7 +34,7 @@ import os
 import tempfile
 import time
 
-from _common import emit, hertz_step_case, isolated
+from _common import emit, hertz_step_case, isolated, time_eigenstrain_builds
 
 
 def one_step(n: int, cache: str, label: str, profile: bool, hardening: str,
@@ -49,19 +49,10 @@ def one_step(n: int, cache: str, label: str, profile: bool, hardening: str,
     tune_malloc()  # the process allocates as `sacflow run` and the campaign workers do
 
     from sacflow.config.solver_inputs import simulation_for
-    from sacflow.kernels import eigenstrain
     from sacflow.kernels.fft import default_threads
     from sacflow.storage.case_file import case_from_dict
 
-    spent = {"eigenstrain_s": 0.0}
-    build = eigenstrain.HalfSpaceEigenstrain.__init__
-
-    def timed_build(self, *args, **kwargs):
-        t = time.perf_counter()
-        build(self, *args, **kwargs)
-        spent["eigenstrain_s"] += time.perf_counter() - t
-
-    eigenstrain.HalfSpaceEigenstrain.__init__ = timed_build
+    spent = time_eigenstrain_builds()
     t0 = time.perf_counter()
     case = hertz_step_case(n, hardening=hardening)
     if sampling != 1:

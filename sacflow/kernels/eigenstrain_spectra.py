@@ -32,7 +32,7 @@ from sacflow.kernels.cuboid_lattice import CuboidLattice
 from sacflow.kernels.eigenstrain_memory import DEPTH_BLOCK_BYTES, padded_lengths
 from sacflow.kernels.folded_fft import folded_spectra
 from sacflow.kernels.residual_displacement import cuboid_surface_displacement
-from sacflow.kernels.surface import rectangle_stress_grid, rectangle_stress_sampled
+from sacflow.kernels.surface import rectangle_stress_sampled
 from sacflow.machine.threads import contiguous_ranges, in_threads, single_threaded_blas
 
 __all__ = [
@@ -316,12 +316,10 @@ def cell_mean_love_stress(x1: np.ndarray, x2: np.ndarray, depth: float,
                           spacing: Sequence[float], nu: float, sampling: int) -> np.ndarray:
     """Love's stress of a unit pressure on a surface cell, at ``x1 × x2`` and ``depth`` [m].
 
-    :func:`~sacflow.kernels.surface.rectangle_stress_grid` at the centre (``sampling = 1``) or
-    its mean over the target cell's ``sampling³`` sub-cell centres
-    (:func:`~sacflow.kernels.surface.rectangle_stress_sampled`); (len(x1), len(x2), 6).
+    Its value at the centre (``sampling = 1``) or its mean over the target cell's
+    ``sampling³`` sub-cell centres (:func:`~sacflow.kernels.surface.rectangle_stress_sampled`);
+    (len(x1), len(x2), 6).
     """
     d1, d2, d3 = spacing
-    if sampling == 1:
-        return rectangle_stress_grid(x1, x2, depth, d1 / 2, d2 / 2, nu)
     q = sub_offsets(sampling)
     return rectangle_stress_sampled(x1, x2, depth + q * d3, (q * d1, q * d2), d1 / 2, d2 / 2, nu)

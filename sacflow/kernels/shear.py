@@ -260,7 +260,7 @@ def surface_load_stress_coefficients(
     to pair with the cell-averaged residual stress.
     """
     from sacflow.kernels.cell_average import cell_mean, sub_offsets
-    from sacflow.kernels.surface import rectangle_stress_grid, rectangle_stress_sampled
+    from sacflow.kernels.surface import rectangle_stress_sampled
 
     dx1, dx2 = cell
     h1, h2 = dx1 / 2, dx2 / 2
@@ -270,12 +270,9 @@ def surface_load_stress_coefficients(
     def coefficients(d1: np.ndarray, d2: np.ndarray) -> np.ndarray:
         out = np.empty((depths.size, 6, *np.broadcast_shapes(d1.shape, d2.shape)))
         for k, depth in enumerate(depths):
-            x1, x2 = d1.ravel() * dx1, d2.ravel() * dx2
-            # Love's rectangle at the centres, or at the sub-points of every target cell on
-            # one corner lattice
-            s = (rectangle_stress_grid(x1, x2, depth, h1, h2, nu) if sampling == 1 else
-                 rectangle_stress_sampled(x1, x2, depth + q * thickness, (q * dx1, q * dx2),
-                                          h1, h2, nu))
+            # Love's rectangle at the sub-points of every target cell, on one corner lattice
+            s = rectangle_stress_sampled(d1.ravel() * dx1, d2.ravel() * dx2,
+                                         depth + q * thickness, (q * dx1, q * dx2), h1, h2, nu)
             if traction is not None:
                 s = s + cell_mean(lambda p1, p2, p3, depth=float(depth):
                                   traction_stress(d1 * dx1 + p1, d2 * dx2 + p2, depth + p3,

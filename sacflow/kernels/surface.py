@@ -83,7 +83,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from sacflow.kernels.lattice import FoldedAxis
+from sacflow.kernels.lattice import FoldedAxis, SampledAxis
 from sacflow.kernels.load_geometry import CORNERS, as_float, point_force, rectangle_points, safe_div
 
 __all__ = [
@@ -259,7 +259,8 @@ def rectangle_stress_sampled(x1: ArrayLike, x2: ArrayLike, x3: ArrayLike,
     ``sub[1]`` and depth ``z`` in ``x3`` (all [m]): a cell-averaged coefficient
     (:mod:`sacflow.kernels.cell_average`). The sub-points of all targets share one corner
     lattice (:class:`~sacflow.kernels.lattice.SampledAxis`), evaluated once per depth; the
-    mean is taken on the folded values, each component with its parity.
+    mean is taken on the folded values, each component with its parity. A single point at the
+    centre (the centre values) is :func:`rectangle_stress_grid`, whose values it returns.
 
     Returns
     -------
@@ -267,11 +268,12 @@ def rectangle_stress_sampled(x1: ArrayLike, x2: ArrayLike, x3: ArrayLike,
         As :func:`rectangle_stress`.
     """
     from sacflow.kernels.cuboid import PARITY
-    from sacflow.kernels.lattice import SampledAxis
 
+    depths = np.ravel(x3)
+    if depths.size == 1 and not np.any(sub[0]) and not np.any(sub[1]):
+        return rectangle_stress_grid(x1, x2, float(depths[0]), half1, half2, nu)
     s1 = SampledAxis(np.ravel(x1), np.ravel(sub[0]), float(half1))
     s2 = SampledAxis(np.ravel(x2), np.ravel(sub[1]), float(half2))
-    depths = np.ravel(x3)
     folded = _folded_rectangle_stress(s1.axis, s2.axis, float(depths[0]), nu)
     for z in depths[1:]:
         folded += _folded_rectangle_stress(s1.axis, s2.axis, float(z), nu)
@@ -285,7 +287,7 @@ def _folded_rectangle_stress(a1: FoldedAxis, a2: FoldedAxis, x3: float,
     """:func:`rectangle_stress` at the folded offsets ``a1.folded × a2.folded``, depth ``x3``."""
     z = float(x3)
     if not z > 0.0:
-        raise ValueError(f"rectangle_stress_grid needs a depth > 0, got {z}")
+        raise ValueError(f"Love's rectangle on a lattice needs a depth > 0, got {z}")
     terms = _rectangle_corner_terms(a1.lattice[:, None], a2.lattice[None, :], np.float64(z))
     d = {key: a2.difference(a1.difference(term, 0), 1) for key, term in terms.items()}
     d["p33"] = -(d["p11"] + d["p22"])  # φ1 is harmonic
