@@ -32,6 +32,8 @@ CERTIFIED_COLUMNS = {"shipped_value": "shipped", "limit": "limit", "error": "err
                      "value_error": "value_error", "relative_uncertainty": "uncertainty"}
 #: Columns recorded relative to the certificate's scale: column -> key suffix.
 SCALED_COLUMNS = {"window_shift": "window_shift", "transfer": "transfer"}
+#: The lateral refinement "Where the press flows" prices: twice the cells along x1 and x2.
+LATERAL_REFINEMENT = 2
 #: The 650 mN case's window sequence at the study's base grid, without and with the traction
 #: beyond the box (their shipped level is the config's grid): the transfer measured for the
 #: case whose certificate has none (its window sequence runs at its shipped grid).
@@ -154,11 +156,22 @@ def press_plastic_peak(out: Path) -> dict[str, float]:
     """Each row of ``data/press-plastic-peak.csv`` (``plastic_peak_{quantity}``): the shape of
     the shipped press's largest εp, written by ``pipelines/press_plastic_peak.py``; and of
     ``data/press-plastic-peak-increments20.csv`` (``plastic_peak_increments20_{quantity}``), the
-    same with the 20 + 6 increments it shipped before."""
-    return {f"plastic_peak_{prefix}{r['quantity']}": float(r["value"])
-            for prefix, name in (("", "press-plastic-peak.csv"),
-                                 ("increments20_", "press-plastic-peak-increments20.csv"))
-            for r in data_rows(name)}
+    same with the 20 + 6 increments it shipped before. With the extent of the flow, its half
+    width and depth over the box's (``plastic_peak_half_width_over_box``,
+    ``plastic_peak_depth_over_box``) and the cells, in boxes, of twice the lateral cells over
+    the sub-box that holds it and the box's own cells elsewhere (``plastic_peak_subbox_cells``)."""
+    numbers = {f"plastic_peak_{prefix}{r['quantity']}": float(r["value"])
+               for prefix, name in (("", "press-plastic-peak.csv"),
+                                    ("increments20_", "press-plastic-peak-increments20.csv"))
+               for r in data_rows(name)}
+    share = numbers["plastic_peak_plastic_subbox_volume_share"]
+    numbers.update(
+        plastic_peak_half_width_over_box=(numbers["plastic_peak_plastic_half_width"]
+                                          / numbers["plastic_peak_box_half_width"]),
+        plastic_peak_depth_over_box=(numbers["plastic_peak_plastic_depth"]
+                                     / numbers["plastic_peak_box_depth"]),
+        plastic_peak_subbox_cells=LATERAL_REFINEMENT**2 * share + (1.0 - share))
+    return numbers
 
 
 #: The press's lateral refinements split (``pipelines/press_lateral_error_split.py``): key ->

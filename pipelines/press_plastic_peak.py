@@ -12,7 +12,11 @@ x1 = x2 = 0) against the largest contact radius of the run, √(area / π), and 
 ring of cells round the axis at its layer. With the certificate's limit of the depth it prints
 how far below its vertex the parabola lies there (the error of εp that the depth's error stands
 for), and how far it falls over half a percent of the depth (the resolution of εp that a depth
-within the study's target asks). ``--table`` writes the numbers (quantity, value, unit;
+within the study's target asks). It also measures where the run flowed at all
+(:func:`sacflow.studies.plastic_peak.plastic_extent`): the share of the box's cells with
+εp > 0, and the smallest square box about the axis that holds them, against the box, by its
+half width, its depth and its volume (what finer cells confined to the flow would still have to
+cover). ``--table`` writes the numbers (quantity, value, unit;
 refused if the file exists, unless ``--overwrite``).
 """
 
@@ -28,7 +32,7 @@ import numpy as np
 
 from sacflow.errors import SacflowError
 from sacflow.studies.convergence_table import TARGET_ERROR, add_table_arguments, write_csv
-from sacflow.studies.plastic_peak import peak_shape
+from sacflow.studies.plastic_peak import peak_shape, plastic_extent
 
 DATA = Path(__file__).resolve().parents[1] / "data"
 #: The press's case in the certificate, and the certified quantity whose limit is read.
@@ -73,6 +77,7 @@ def measure_run(path: Path) -> list[dict[str, object]]:
         raise SacflowError(f"{path}: no plastic strain at its last step, so no maximum to "
                            "measure")
     shape = peak_shape(field, x1, x2, x3)
+    extent = plastic_extent(field, x1, x2, x3)
     limit, shipped = certified_depth()
     rows = {
         "largest_eqps_refined": (shape.value, "1"), "its_depth": (shape.depth, "m"),
@@ -86,6 +91,10 @@ def measure_run(path: Path) -> list[dict[str, object]]:
         "shipped_minus_limit": (shipped - limit, "m"),
         "drop_over_half_percent_of_depth": (
             shape.drop_at(shape.depth + TARGET_ERROR * limit), "1"),
+        "plastic_share": (extent.share, "1"), "plastic_half_width": (extent.half_width, "m"),
+        "box_half_width": (extent.box_half_width, "m"), "plastic_depth": (extent.depth, "m"),
+        "box_depth": (extent.box_depth, "m"),
+        "plastic_subbox_volume_share": (extent.volume_share, "1"),
     }
     return [{"quantity": k, "value": f"{v:.10g}", "unit": u} for k, (v, u) in rows.items()]
 

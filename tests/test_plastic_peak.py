@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sacflow.studies.plastic_peak import peak_shape
+from sacflow.studies.plastic_peak import peak_shape, plastic_extent
 
 #: Cells of 4 µm across a 200 µm square, layers of 2 µm to 60 µm.
 X = np.arange(-98e-6, 100e-6, 4e-6)
@@ -56,6 +56,39 @@ def test_nan_cells_outside_the_box_are_ignored_and_edge_layers_refused() -> None
         peak_shape(ring(z0=0.0), X, X, Z)
 
 
+def block(half_x1: float, half_x2: float, deepest: float) -> np.ndarray:
+    """1 on the cells whose centres lie within |x1| ≤ half_x1, |x2| ≤ half_x2, x3 ≤ deepest."""
+    inside = ((np.abs(X)[:, None, None] <= half_x1) & (np.abs(X)[None, :, None] <= half_x2)
+              & (Z[None, None, :] <= deepest))
+    return inside.astype(float)
+
+
+def test_the_extent_of_the_flow_is_read_to_the_outer_faces_of_its_cells() -> None:
+    # centres to ±30 µm along x1 (faces ±32 µm), ±10 µm along x2; layers to 21 µm
+    # (lower face 22 µm); the box's faces at ±100 µm and 0 to 60 µm
+    field = block(31e-6, 11e-6, 22e-6)
+    extent = plastic_extent(field, X, X, Z)
+    assert extent.half_width == pytest.approx(32e-6, rel=1e-12)
+    assert extent.box_half_width == pytest.approx(100e-6, rel=1e-12)
+    assert extent.depth == pytest.approx(22e-6, rel=1e-12)
+    assert extent.box_depth == pytest.approx(60e-6, rel=1e-12)
+    assert extent.share == (16 * 6 * 11) / field.size
+    assert extent.volume_share == pytest.approx(0.32**2 * 22 / 60, rel=1e-12)
+    # about an axis at x1 = 8 µm the square reaches the face at −32 µm, 40 µm from it
+    shifted = plastic_extent(field, X, X, Z, axis=(8e-6, 0.0))
+    assert shifted.half_width == pytest.approx(40e-6, rel=1e-12)
+    assert shifted.box_half_width == pytest.approx(108e-6, rel=1e-12)
+
+
+def test_the_extent_ignores_nan_cells_and_refuses_a_field_that_never_flowed() -> None:
+    field = block(31e-6, 31e-6, 22e-6)
+    field[np.abs(X) > 60e-6] = np.nan
+    extent = plastic_extent(field, X, X, Z)
+    assert extent.half_width == pytest.approx(32e-6, rel=1e-12)
+    with pytest.raises(ValueError, match="no cell"):
+        plastic_extent(np.zeros_like(field), X, X, Z)
+
+
 def run_file(path, field: np.ndarray) -> None:
     """A run file of two steps, ``field`` the last step's εp (as ``sacflow run`` stores it)."""
     import xarray as xr
@@ -90,6 +123,8 @@ def test_the_script_reads_a_run_and_never_replaces_a_table(tmp_path, capsys) -> 
     limit = float(rows["certified_depth_limit"])
     assert float(rows["drop_at_certified_limit"]) == pytest.approx(
         4e8 * 0.07 * (limit - 21.3e-6) ** 2 / shape_value_at_vertex(), rel=1e-9)
+    assert float(rows["plastic_share"]) == pytest.approx(float((ring() > 0).mean()), rel=1e-9)
+    assert float(rows["plastic_depth"]) == pytest.approx(float(rows["box_depth"]), rel=1e-9)
     before = table.read_text()
     assert module.main([str(run), "--table", str(table)]) == 1
     assert "exists" in capsys.readouterr().err and table.read_text() == before

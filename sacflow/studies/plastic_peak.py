@@ -16,6 +16,11 @@ flatness on a finished run's field, so that an error of the depth can be read as
   distance from the axis is within half a cell of the maximum's, (largest − smallest) / largest.
   On a square grid a ring's cells sit at different places relative to the ring, so its largest
   cell, and with it the depth read there, is the grid's choice among nearly equal values.
+
+:func:`plastic_extent` measures where a run flows at all: the share of its box's cells with
+εp > 0 and the smallest box about the load axis that holds them, against the box. Finer cells
+confined to a sub-box of the flow would save work only in proportion to what that sub-box
+leaves out.
 """
 
 from __future__ import annotations
@@ -26,7 +31,7 @@ import numpy as np
 
 from sacflow.compare.fields import refined_peak
 
-__all__ = ["PeakShape", "peak_shape"]
+__all__ = ["PeakShape", "PlasticExtent", "peak_shape", "plastic_extent"]
 
 
 @dataclass(frozen=True)
@@ -96,3 +101,72 @@ def peak_shape(field: np.ndarray, x1: np.ndarray, x2: np.ndarray, x3: np.ndarray
         layer=layer, above=above / peak - 1.0, below=below / peak - 1.0,
         curvature=max(-second, 0.0) / (layer * layer * vertex_value),
         ring_spread=float((ring.max() - ring.min()) / ring.max()))
+
+
+@dataclass(frozen=True)
+class PlasticExtent:
+    """Where a field is positive, against its box (see :func:`plastic_extent`); metres.
+
+    ``share`` is the share of the box's cells with a positive value; ``half_width`` the half
+    side of the smallest square about the load axis, to the outer faces of its cells, that holds
+    them, and ``box_half_width`` the box's own (to its outermost faces, the larger of x1 and
+    x2); ``depth`` the depth of the deepest such cell's lower face below the box's top face,
+    and ``box_depth`` the box's.
+    """
+
+    share: float
+    half_width: float
+    box_half_width: float
+    depth: float
+    box_depth: float
+
+    @property
+    def volume_share(self) -> float:
+        """Volume of the square sub-box that holds the positive cells, over the box's."""
+        return (self.half_width / self.box_half_width) ** 2 * self.depth / self.box_depth
+
+
+def _faces(centres: np.ndarray) -> np.ndarray:
+    """Cell faces of cell centres: midpoints, and the end cells as wide as their neighbour."""
+    c = np.asarray(centres, dtype=float)
+    inner = 0.5 * (c[1:] + c[:-1])
+    return np.concatenate(([2.0 * c[0] - inner[0]], inner, [2.0 * c[-1] - inner[-1]]))
+
+
+def plastic_extent(field: np.ndarray, x1: np.ndarray, x2: np.ndarray, x3: np.ndarray,
+                   axis: tuple[float, float] = (0.0, 0.0)) -> PlasticExtent:
+    """Measure the cells of a cell-centred field that are positive (εp > 0: they flowed).
+
+    Parameters
+    ----------
+    field : ndarray
+        Cell values, shape (len(x1), len(x2), len(x3)); NaN (cells outside the plastic box)
+        count as not positive.
+    x1, x2, x3 : ndarray
+        Cell-centre coordinates [m], at least two each; x3 is the depth.
+    axis : tuple of float
+        (x1, x2) of the load axis [m].
+
+    Raises
+    ------
+    ValueError
+        When no cell is positive.
+    """
+    values = np.asarray(field, dtype=float)
+    positive = np.nan_to_num(values, nan=0.0) > 0.0
+    if not positive.any():
+        raise ValueError("no cell of the field is positive")
+    lateral = []
+    for centres, centre, hit in ((x1, axis[0], positive.any(axis=(1, 2))),
+                                 (x2, axis[1], positive.any(axis=(0, 2)))):
+        faces = _faces(centres) - centre
+        lateral.append((float(np.abs(np.concatenate((faces[:-1][hit], faces[1:][hit]))).max()),
+                        float(np.abs(faces).max())))
+    layers = _faces(x3)
+    deepest = int(np.nonzero(positive.any(axis=(0, 1)))[0].max())
+    return PlasticExtent(
+        share=float(positive.mean()),
+        half_width=max(width for width, _ in lateral),
+        box_half_width=max(box for _, box in lateral),
+        depth=float(layers[deepest + 1] - layers[0]),
+        box_depth=float(layers[-1] - layers[0]))
