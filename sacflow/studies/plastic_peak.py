@@ -29,6 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sacflow.compare.core import cell_bounds
 from sacflow.compare.fields import refined_peak
 
 __all__ = ["PeakShape", "PlasticExtent", "peak_shape", "plastic_extent"]
@@ -126,11 +127,16 @@ class PlasticExtent:
         return (self.half_width / self.box_half_width) ** 2 * self.depth / self.box_depth
 
 
-def _faces(centres: np.ndarray) -> np.ndarray:
-    """Cell faces of cell centres: midpoints, and the end cells as wide as their neighbour."""
-    c = np.asarray(centres, dtype=float)
-    inner = 0.5 * (c[1:] + c[:-1])
-    return np.concatenate(([2.0 * c[0] - inner[0]], inner, [2.0 * c[-1] - inner[-1]]))
+def _reach(centres: np.ndarray, dim: str, centre: float, hit: np.ndarray) -> tuple[float, float]:
+    """Farthest outer face from ``centre`` of the ``hit`` cells along ``dim``, and of all cells.
+
+    Uniform cells (:func:`~sacflow.compare.core.cell_bounds`): each face half a spacing from
+    its centre.
+    """
+    x = np.asarray(centres, dtype=float)
+    low, high = cell_bounds(x, dim)
+    half = 0.5 * (high - low) / x.size
+    return float(np.abs(x[hit] - centre).max() + half), float(max(centre - low, high - centre))
 
 
 def plastic_extent(field: np.ndarray, x1: np.ndarray, x2: np.ndarray, x3: np.ndarray,
@@ -143,7 +149,7 @@ def plastic_extent(field: np.ndarray, x1: np.ndarray, x2: np.ndarray, x3: np.nda
         Cell values, shape (len(x1), len(x2), len(x3)); NaN (cells outside the plastic box)
         count as not positive.
     x1, x2, x3 : ndarray
-        Cell-centre coordinates [m], at least two each; x3 is the depth.
+        Cell-centre coordinates [m], uniform spacings; x3 is the depth.
     axis : tuple of float
         (x1, x2) of the load axis [m].
 
@@ -156,17 +162,11 @@ def plastic_extent(field: np.ndarray, x1: np.ndarray, x2: np.ndarray, x3: np.nda
     positive = np.nan_to_num(values, nan=0.0) > 0.0
     if not positive.any():
         raise ValueError("no cell of the field is positive")
-    lateral = []
-    for centres, centre, hit in ((x1, axis[0], positive.any(axis=(1, 2))),
-                                 (x2, axis[1], positive.any(axis=(0, 2)))):
-        faces = _faces(centres) - centre
-        lateral.append((float(np.abs(np.concatenate((faces[:-1][hit], faces[1:][hit]))).max()),
-                        float(np.abs(faces).max())))
-    layers = _faces(x3)
-    deepest = int(np.nonzero(positive.any(axis=(0, 1)))[0].max())
+    lateral = [_reach(x1, "x1", axis[0], positive.any(axis=(1, 2))),
+               _reach(x2, "x2", axis[1], positive.any(axis=(0, 2)))]
+    deepest, box_depth = _reach(x3, "x3", cell_bounds(x3, "x3")[0], positive.any(axis=(0, 1)))
     return PlasticExtent(
         share=float(positive.mean()),
         half_width=max(width for width, _ in lateral),
         box_half_width=max(box for _, box in lateral),
-        depth=float(layers[deepest + 1] - layers[0]),
-        box_depth=float(layers[-1] - layers[0]))
+        depth=deepest, box_depth=box_depth)
