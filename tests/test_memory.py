@@ -145,6 +145,14 @@ print(json.dumps({"peak": peak, "estimate": estimate_case_memory(case).total}))
 """
 
 
+def _estimate_over_peak(path, overrides):
+    """The estimate over the measured peak of a run in a fresh process, and both numbers."""
+    out = subprocess.run([sys.executable, "-c", _MEASURE, str(path), *overrides],
+                         capture_output=True, text=True, check=True)
+    numbers = json.loads(out.stdout.splitlines()[-1])
+    return numbers["estimate"] / numbers["peak"], numbers
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("path, overrides", [
     (HERTZ, []),
@@ -152,10 +160,15 @@ print(json.dumps({"peak": peak, "estimate": estimate_case_memory(case).total}))
             "load_path.1.increments=1"]),
 ], ids=["elastic-128x128x16", "plastic-32x32x24"])
 def test_estimate_is_near_the_measured_peak_or_above(path, overrides):
-    out = subprocess.run([sys.executable, "-c", _MEASURE, str(path), *overrides],
-                         capture_output=True, text=True, check=True)
-    numbers = json.loads(out.stdout.splitlines()[-1])
-    ratio = numbers["estimate"] / numbers["peak"]
+    ratio, numbers = _estimate_over_peak(path, overrides)
+    assert 0.9 < ratio < 1.4, numbers
+
+
+def test_the_libraries_estimate_holds_for_a_run_of_almost_nothing_else():
+    """A 16 × 16 × 2 Hertz run is nearly all interpreter and libraries (``LIBRARY_BYTES``), in
+    seconds: a heavier import shows here in the default suite (numba, loaded by every run since
+    the compiled passes, once went unseen against an elastic figure that left it out)."""
+    ratio, numbers = _estimate_over_peak(HERTZ, ["grid.nx=16", "grid.ny=16", "grid.nz=2"])
     assert 0.9 < ratio < 1.4, numbers
 
 
