@@ -90,13 +90,13 @@ from sacflow.kernels.cuboid import SHEAR_WEIGHTS
 from sacflow.kernels.eigenstrain_memory import kernel_bytes, padded_lengths
 from sacflow.kernels.eigenstrain_spectra import EVEN, KERNEL_VERSION, ODD, kernel_spectra
 from sacflow.kernels.fft import RealFFT, RealToReal, default_threads
-from sacflow.kernels.traction_stencil import TractionStencil
 from sacflow.machine.kernel_cache import cached_arrays
 from sacflow.machine.resources import available_memory
 from sacflow.machine.threads import contiguous_ranges, over_ranges
 
 if TYPE_CHECKING:
     from sacflow.kernels.far_traction import FarTraction
+    from sacflow.kernels.traction_stencil import TractionStencil
 
 __all__ = [
     "HalfSpaceEigenstrain",
@@ -222,6 +222,8 @@ class HalfSpaceEigenstrain:
         self._stencil: TractionStencil | None = None
         self._top: np.ndarray | None = None  # the stencil's sources, from surface_fields
         if traction_quadrature:
+            from sacflow.kernels.traction_stencil import TractionStencil  # compiled (numba)
+
             self._stencil = TractionStencil(self.shape, self.spacing, self.nu, self.mu,
                                             self.threads)
         self._far: FarTraction | None = None

@@ -4,7 +4,9 @@ Type II Anderson acceleration: Walker & Ni, SIAM J. Numer. Anal. 49 (2011) 1715,
 doi:10.1137/10078356X.
 
 Used by the solver to accelerate the plastic-strain fixed point of seed §1.7 (Figs. 4–5), which
-plain (Picard) iteration solves in hundreds of sweeps (seed §2.5).
+plain (Picard) iteration solves in hundreds of sweeps (seed §2.5). Its compiled passes
+(:mod:`sacflow.solver.vector_passes`, numba) are imported where they run: an elastic run, which
+never mixes, does not load numba (the libraries of :mod:`sacflow.solver.memory_estimate`).
 """
 
 from __future__ import annotations
@@ -13,15 +15,6 @@ from collections import deque
 from collections.abc import Sequence
 
 import numpy as np
-
-from sacflow.solver.vector_passes import (
-    column_dots,
-    gather_differences,
-    mix_start,
-    mix_subtract,
-    new_nonzeros,
-    scatter_support,
-)
 
 __all__ = ["SUPPORT_MARGIN", "AndersonMixer"]
 
@@ -106,6 +99,8 @@ class AndersonMixer:
         places in it are a mask operation and two scans, linear in the vector's length (sorting
         or hashing the indices, as a set union does, costs far more on a large plastic zone).
         """
+        from sacflow.solver.vector_passes import new_nonzeros, scatter_support  # plastic runs only
+
         kept = self._kept
         if kept is None:
             kept = self._kept = np.zeros(x.size, dtype=bool)
@@ -163,6 +158,14 @@ class AndersonMixer:
         if self.depth == 0:
             plain: np.ndarray = x + self.mixing * (gx - x)
             return plain
+        from sacflow.solver.vector_passes import (  # compiled: imported by plastic runs only
+            column_dots,
+            gather_differences,
+            mix_start,
+            mix_subtract,
+            scatter_support,
+        )
+
         x, gx = np.ascontiguousarray(x, dtype=float), np.ascontiguousarray(gx, dtype=float)
         self._grow_support(x, gx)
         support = self._support

@@ -27,7 +27,6 @@ from sacflow.solver.nonlinear import (
     solve_fixed_point,
 )
 from sacflow.solver.operators import Operators
-from sacflow.solver.vector_passes import largest_magnitudes, trial_stress
 
 if TYPE_CHECKING:
     from scipy.sparse.linalg import LinearOperator
@@ -161,6 +160,10 @@ class PlasticFixedPoint:
         # The plastic strain already there bounds the scale from below: a hold step's increment
         # is round-off, and measured against itself it never converges.
         strain_scale = max(float(np.abs(plastic_strain).max()), TINY)
+        from sacflow.solver.vector_passes import (  # compiled: imported by plastic runs only
+            largest_magnitudes,
+            trial_stress,
+        )
 
         def evaluate(x: np.ndarray) -> Evaluation:
             nonlocal applications

@@ -23,8 +23,8 @@ on its body grid (:func:`~sacflow.solver.layout.body_grid`; a case's is laid out
   Newton–Krylov fallback;
 * the fields of the per-step states handed to the store: the state being written and the next
   one being made (the runner's loop holds one while the solver makes the next);
-* the interpreter and its libraries (numpy, scipy, pyfftw, xarray, netCDF4 and numba),
-  measured.
+* the interpreter and its libraries (numpy, scipy, pyfftw, xarray, netCDF4, and numba for
+  plastic bodies), measured.
 
 The body grid of a rolling case is the contact window swept along the track. The estimate is
 for the case as given; if plastic strain reaches the bottom of the cuboid box, ``sacflow run``
@@ -56,13 +56,12 @@ FLOAT, COMPLEX = 8, 16
 COMPONENTS = 6
 #: Resident memory of the interpreter and the libraries a run loads, before any grid array:
 #: measured peak of ``sacflow run`` on a 16 × 16 × 2 case. It depends on how much of the shared
-#: libraries' files the page cache holds (llvmlite's is 179 MB). Every run loads numba: the
-#: solver's compiled passes import it, elastic runs included, which call none of them. In a
-#: freshly installed environment (2026-11-29): hertz-elastic 154 MB (three runs), the plastic
-#: nanoindentation-650mN, whose compiled returns run, 226 MB (two runs); on 2026-11-25, before
-#: the compiled passes, 90 and 270 MB. The larger figures are kept: the estimate is meant to
-#: be the peak or above.
-LIBRARY_BYTES = {"elastic": 154 * 2**20, "plastic": 270 * 2**20}
+#: libraries' files the page cache holds (llvmlite's is 179 MB). Plastic runs load numba and
+#: llvmlite for their compiled passes and returns; elastic runs do not (those are imported where
+#: they run). In a freshly installed environment (2026-11-29): hertz-elastic 96 MB (three
+#: runs), the plastic nanoindentation-650mN 226 MB (two runs); on 2026-11-25, 90 and 270 MB.
+#: The larger figures are kept: the estimate is meant to be the peak or above.
+LIBRARY_BYTES = {"elastic": 96 * 2**20, "plastic": 270 * 2**20}
 #: Window-sized arrays of the contact solver (pressure, gap, conjugate direction, displacement,
 #: its update, masks, the initial gap and the result's copies; :mod:`sacflow.mechanics.contact`).
 CONTACT_ARRAYS = 14
@@ -330,8 +329,7 @@ def estimate_memory(grid: BodyGrid, plastic: bool, anderson_depth: int,
     """
     libraries = MemoryItem(
         "libraries", LIBRARY_BYTES["plastic" if plastic else "elastic"],
-        "the interpreter, numpy, scipy, pyfftw, xarray, netCDF4, numba"
-        + (" and its compiled returns" if plastic else ""),
+        "the interpreter, numpy, scipy, pyfftw, xarray, netCDF4" + (", numba" if plastic else ""),
     )
     contact = _contact(grid, contact_subcells)
     stress_op, stress_setup = _pressure_stress(grid)
