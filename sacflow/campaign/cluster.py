@@ -57,6 +57,7 @@ WORKER_ENV = {
 WORKER_PRELOAD = ("distributed", "sacflow.campaign", "sacflow.runner", "sacflow.solver.simulation")
 #: ... and, when a case has plasticity, what only elastic-plastic runs import (numba included).
 PLASTIC_PRELOAD = ("scipy.sparse.linalg", "sacflow.kernels.eigenstrain",
+                   "sacflow.solver.vector_passes", "sacflow.kernels.traction_stencil",
                    "sacflow.kernels.pair_products")
 #: ... and last, a module that freezes the garbage collector's view of all that (gc.freeze).
 FORK_SERVER_LAST = "sacflow.campaign.gc_freeze"
