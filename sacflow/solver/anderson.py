@@ -99,7 +99,7 @@ class AndersonMixer:
         places in it are a mask operation and two scans, linear in the vector's length (sorting
         or hashing the indices, as a set union does, costs far more on a large plastic zone).
         """
-        from sacflow.solver.vector_passes import new_nonzeros, scatter_support  # plastic runs only
+        from sacflow.solver.vector_passes import new_nonzeros, scatter_support  # compiled (numba)
 
         kept = self._kept
         if kept is None:
@@ -158,7 +158,7 @@ class AndersonMixer:
         if self.depth == 0:
             plain: np.ndarray = x + self.mixing * (gx - x)
             return plain
-        from sacflow.solver.vector_passes import (  # compiled: imported by plastic runs only
+        from sacflow.solver.vector_passes import (  # compiled (numba): plastic runs only
             column_dots,
             gather_differences,
             mix_start,

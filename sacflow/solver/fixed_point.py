@@ -160,7 +160,7 @@ class PlasticFixedPoint:
         # The plastic strain already there bounds the scale from below: a hold step's increment
         # is round-off, and measured against itself it never converges.
         strain_scale = max(float(np.abs(plastic_strain).max()), TINY)
-        from sacflow.solver.vector_passes import (  # compiled: imported by plastic runs only
+        from sacflow.solver.vector_passes import (  # compiled (numba): plastic runs only
             largest_magnitudes,
             trial_stress,
         )

@@ -298,7 +298,7 @@ class IncrementSolver:
         u_old = body.residual_displacement
         u_floor = max(float(np.abs(u_old).max()), TINY)  # a hold step moves u by round-off
         last = CouplingTrace()
-        from sacflow.solver.vector_passes import summed  # compiled: plastic runs only
+        from sacflow.solver.vector_passes import summed  # compiled (numba): plastic runs only
         # Without friction the eigenstrain operator adds the contact pressure's stress in the
         # transforms of the residual stress (its traction correction applies Love's stresses of
         # a surface pressure): one application per evaluation, no pressure-stress convolution.
