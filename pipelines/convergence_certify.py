@@ -16,6 +16,7 @@ with that limit. It runs nothing: every number comes from the study's tables und
 from __future__ import annotations
 
 import argparse
+import csv
 import math
 import sys
 from dataclasses import dataclass
@@ -33,7 +34,9 @@ from sacflow.studies.certify import (
     transfer,
 )
 from sacflow.studies.convergence import STUDY_CASES, base_case, shipped_discretisation
-from sacflow.studies.convergence_table import read_summary, write_csv, write_figure
+from sacflow.studies.convergence_table import finest_step, read_summary, write_csv, write_figure
+from sacflow.studies.error_parts import ModelCheck, Part, PartsLimit, parts_limit
+from sacflow.studies.richardson import MONOTONE
 
 DATA = Path(__file__).resolve().parents[1] / "data"
 
@@ -50,7 +53,11 @@ class Sources:
     ``shipped_off``, when given, is the levels table, sequence and level that ran the shipped
     discretisation without the traction beyond the box, for a config whose discretisation
     changed after its `together` summary recorded its ``shipped_value``; that level must then
-    be the config's grid and increments (:func:`shipped_off_values`).
+    be the config's grid and increments (:func:`shipped_off_values`). ``parts``, when given,
+    is the levels table of the lateral, layers and increments sequences refined one at a time
+    from the study's base (its summary the same name with ``-summary``): the limit they add
+    up to (:mod:`sacflow.studies.error_parts`) stands in where the `together` sequence has
+    none.
     """
 
     together: str
@@ -58,13 +65,16 @@ class Sources:
     window_far: str
     shipped_far: str
     shipped_off: tuple[str, str, int] | None = None
+    parts: str | None = None
 
     def window_summary(self) -> str:
         """The window levels table's summary."""
         return self.window.replace(".csv", "-summary.csv")
 
 
-#: Case -> its tables. The 650 mN case's window sequence runs at its shipped grid, the 190 mN
+#: Case -> its tables. The three nano-indentations' one-at-a-time sequences run from the
+#: study's base grid to h = 1/6, extrapolated through their finest three levels as their
+#: `together` sequences. The 650 mN case's window sequence runs at its shipped grid, the 190 mN
 #: and linear-hardening cases' at the study's base grid (64² × 24 cells, 10 + 5 increments),
 #: the press's at 48² × 64 cells with 20 + 6 increments. The press's `together` is the one with
 #: its contact on sub-cells whose pressure loads the body, as it ships, to a fourth level and
@@ -77,13 +87,16 @@ class Sources:
 SOURCES = {
     "nanoindentation-650mN": Sources(
         "convergence-650-steps6-summary.csv", "convergence-window-650.csv",
-        "convergence-window-650-far.csv", "convergence-window-650-far-summary.csv"),
+        "convergence-window-650-far.csv", "convergence-window-650-far-summary.csv",
+        parts="convergence-parts-steps6.csv"),
     "nanoindentation-190mN": Sources(
         "convergence-190-steps6-summary.csv", "convergence-window-base.csv",
-        "convergence-window-base-far.csv", "convergence-window-base-far-summary.csv"),
+        "convergence-window-base-far.csv", "convergence-window-base-far-summary.csv",
+        parts="convergence-parts-steps6.csv"),
     "nanoindentation-linear-650mN": Sources(
         "convergence-shipped-summary.csv", "convergence-window-base.csv",
-        "convergence-window-base-far.csv", "convergence-window-base-far-summary.csv"),
+        "convergence-window-base-far.csv", "convergence-window-base-far-summary.csv",
+        parts="convergence-parts-steps6.csv"),
     "dent-from-indentation-press": Sources(
         "convergence-press-subcell-stress4-summary.csv", "convergence-press-window.csv",
         "convergence-press-window-far.csv",
@@ -175,16 +188,139 @@ def option_changes(case: str, sources: Sources, data: Path = DATA) -> dict[str, 
     return out
 
 
+#: The parameter each one-at-a-time sequence refines: its column of the levels table.
+PART_PARAMETERS = {"lateral": "nx", "layers": "nz", "increments": "increments"}
+#: One row per case and quantity of ``--parts-table``: the base's value, each part's limit and
+#: share of the base's error, the limit they give with its two uncertainties, the largest
+#: misfit and the level it was found at, and the `together` sequence's own behaviour and limit.
+PARTS_COLUMNS: tuple[str, ...] = (
+    "case", "quantity", "unit", "base_value", "lateral_limit", "layers_limit",
+    "increments_limit", "lateral_share", "layers_share", "increments_share", "limit",
+    "parts_uncertainty", "misfit", "misfit_level", "uncertainty", "together_behaviour",
+    "together_limit", "together_uncertainty",
+)
+
+Level = tuple[int, int, int]
+
+
+def sequence_levels(path: Path, case: str, sequence: str) -> dict[Level, dict[str, float]]:
+    """Each level of one sequence of a levels table: (cells, layers, increments) -> quantities."""
+    if not path.is_file():
+        raise SacflowError(f"no levels table {path}: give the --table of a finished study")
+    out: dict[Level, dict[str, float]] = {}
+    with path.open(newline="", encoding="utf-8") as f:
+        for r in csv.DictReader(f):
+            if r["case"] == case and r["sequence"] == sequence and r["value"]:
+                key = (int(r["nx"]), int(r["nz"]), int(r["increments"]))
+                out.setdefault(key, {})[r["quantity"]] = float(r["value"])
+    if not out:
+        raise SacflowError(f"{path} has no {sequence} sequence of {case}: run "
+                           f"pipelines/convergence.py --sequences {sequence} into it")
+    return out
+
+
+@dataclass(frozen=True)
+class PartsFound:
+    """One quantity's limit from the parts, with the `together` row it stands in for."""
+
+    case: str
+    quantity: str
+    unit: str
+    base_value: float
+    parts: dict[str, Part]
+    found: PartsLimit
+    misfit_level: str
+    together: dict[str, object]
+
+    def row(self) -> dict[str, object]:
+        """The row of :data:`PARTS_COLUMNS`."""
+        return {
+            "case": self.case, "quantity": self.quantity, "unit": self.unit,
+            "base_value": self.base_value,
+            **{f"{k}_limit": p.limit for k, p in self.parts.items()},
+            **{f"{k}_share": e for k, e in self.found.base_errors.items()},
+            "limit": self.found.limit, "parts_uncertainty": self.found.parts_uncertainty,
+            "misfit": self.found.misfit, "misfit_level": self.misfit_level,
+            "uncertainty": self.found.uncertainty,
+            "together_behaviour": self.together["behaviour"],
+            "together_limit": self.together["limit"],
+            "together_uncertainty": self.together["uncertainty"],
+        }
+
+
+def parts_limits(case: str, sources: Sources, data: Path = DATA) -> dict[str, PartsFound]:
+    """Each quantity's limit from the one-at-a-time sequences of ``sources.parts`` (if any).
+
+    The base is the level every part shares. The model is checked on the `together` levels
+    finer than the base and off every one-at-a-time line (they differ from the base in two
+    parameters or more), and on the shipped discretisation (the traction beyond the box left
+    out), when it is off the lines too.
+    """
+    if sources.parts is None:
+        return {}
+    table = data / sources.parts
+    summary = read_summary(table.with_name(table.stem + "-summary.csv"))
+    levels = {seq: sequence_levels(table, case, seq) for seq in PART_PARAMETERS}
+    shared = set.intersection(*(set(v) for v in levels.values()))
+    if len(shared) != 1:
+        raise SacflowError(f"{table}: {case}'s one-at-a-time sequences share {len(shared)} "
+                           f"levels, not one base: run them from one base grid")
+    base = shared.pop()
+    index = dict(zip(PART_PARAMETERS, range(3), strict=True))
+    coarsest = {seq: min(lv[index[seq]] for lv in levels[seq]) for seq in PART_PARAMETERS}
+
+    def steps(level: Level) -> dict[str, float]:
+        """Each parameter's step h, relative to its sequence's coarsest level as the study's."""
+        return {seq: coarsest[seq] / level[index[seq]] for seq in PART_PARAMETERS}
+
+    def off_the_lines(level: Level) -> bool:
+        finer = all(a >= b for a, b in zip(level, base, strict=True))
+        return finer and sum(a != b for a, b in zip(level, base, strict=True)) >= 2
+
+    together_table = data / sources.together.replace("-summary.csv", ".csv")
+    candidates = {f"together {lv[0]}² × {lv[1]}, {lv[2]} increments": (lv, values)
+                  for lv, values in sequence_levels(together_table, case, "together").items()
+                  if off_the_lines(lv)}
+    together = read_summary(data / sources.together)
+    shipped = shipped_discretisation(base_case(STUDY_CASES[case]))
+    shipped_level = (shipped.nx, shipped.nz, shipped.total_increments)
+    out: dict[str, PartsFound] = {}
+    for name in QUANTITIES:
+        rows = {seq: summary.get((case, seq, name)) for seq in PART_PARAMETERS}
+        fit = together.get((case, "together", name))
+        if fit is None or any(r is None for r in rows.values()) or name not in levels[
+                "lateral"][base]:
+            continue
+        parts = {seq: Part(str(r["behaviour"]), r["limit"], r["uncertainty"], r["order"],
+                           r["finest_value"], finest_step(r))
+                 for seq, r in rows.items() if r is not None}
+        checks = {label: ModelCheck(steps(lv), values[name])
+                  for label, (lv, values) in candidates.items() if name in values}
+        if sources.shipped_off is None and off_the_lines(shipped_level) and math.isfinite(
+                fit["shipped_value"]):
+            checks["shipped"] = ModelCheck(steps(shipped_level), fit["shipped_value"])
+        found = parts_limit(levels["lateral"][base][name], parts, list(checks.values()))
+        if found is None:
+            continue
+        worst = max(zip(found.discrepancies, checks, strict=True), key=lambda d: abs(d[0]),
+                    default=(0.0, ""))
+        out[name] = PartsFound(case, name, str(fit["unit"]), levels["lateral"][base][name],
+                               parts, found, worst[1], fit)
+    return out
+
+
 def certificates(case: str, sources: Sources, data: Path = DATA) -> list[Certificate]:
     """Each quantity of :data:`QUANTITIES` that every table of ``case`` has, certified.
 
     The points of the σ11 profile on the axis are judged against the profile's largest
     magnitude, the certified limit of its minimum (:data:`PROFILE_SCALE`, first in
-    :data:`QUANTITIES` order before them).
+    :data:`QUANTITIES` order before them). Where the `together` sequence has no limit, the
+    parts' (:func:`parts_limits`) stands in when they give one.
     """
     together = read_summary(data / sources.together)
     window = read_summary(data / sources.window_summary())
     changes = option_changes(case, sources, data)
+    from_parts = parts_limits(case, sources, data)
     out: list[Certificate] = []
     scale: float | None = None
     for name in QUANTITIES:
@@ -194,8 +330,10 @@ def certificates(case: str, sources: Sources, data: Path = DATA) -> list[Certifi
             continue
         moved = transfer(change.shipped_on, change.shipped_off, change.first_on,
                          change.first_off)
+        parts = from_parts.get(name)
         certificate = certify(fit, win, change.first_off, change.shipped_on, moved,
-                              scale if name.startswith(PROFILE) else None)
+                              scale if name.startswith(PROFILE) else None,
+                              parts=None if parts is None else parts.found)
         if name == PROFILE_SCALE:
             scale = certificate.limit
         out.append(certificate)
@@ -206,11 +344,17 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--table", type=Path, help="write the certificates here (CSV)")
     parser.add_argument("--plot", type=Path, help="write the errors' plot here (PNG)")
+    parser.add_argument("--parts-table", type=Path,
+                        help="write the limits the one-at-a-time sequences give here (CSV)")
     parser.add_argument("--overwrite", action="store_true",
                         help="replace an existing table or plot")
     args = parser.parse_args(argv)
     try:
         found = [c for case, s in SOURCES.items() for c in certificates(case, s)]
+        from_parts = [p for case, s in SOURCES.items() for p in parts_limits(case, s).values()]
+        if args.parts_table is not None:
+            write_csv(args.parts_table, [p.row() for p in from_parts], PARTS_COLUMNS,
+                      args.overwrite)
         if args.table is not None:
             write_csv(args.table, [c.row() for c in found], CERTIFIED_COLUMNS, args.overwrite)
         if args.plot is not None:
@@ -225,7 +369,22 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{c.case:28s} {c.quantity:34s} {c.limit:12.5g} "
               f"{100 * c.relative_uncertainty:6.3f}% {100 * c.error:+7.3f}% "
               f"{100 * c.value_error:+9.3f}% {c.verdict} ({c.together_kind})")
+    print_parts(from_parts)
     return 0
+
+
+def print_parts(found: list[PartsFound]) -> None:
+    """Print each limit from the parts beside the `together` sequence's own."""
+    print(f"\n{'case':28s} {'quantity':34s} {'parts limit':>12s} {'U/|f*|':>7s} "
+          f"{'misfit':>7s} {'together':>12s} {'U/|f*|':>7s}")
+    for p in found:
+        limit = p.found.limit
+        own = float(str(p.together["limit"]))
+        own_u = (f"{100 * float(str(p.together['uncertainty'])) / abs(own):6.3f}%"
+                 if p.together["behaviour"] == MONOTONE else f"{p.together['behaviour']:>7s}")
+        print(f"{p.case:28s} {p.quantity:34s} {limit:12.6g} "
+              f"{100 * p.found.uncertainty / abs(limit):6.3f}% "
+              f"{100 * p.found.misfit / abs(limit):6.3f}% {own:12.6g} {own_u}")
 
 
 if __name__ == "__main__":

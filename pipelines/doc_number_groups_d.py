@@ -365,8 +365,119 @@ def press_flow_points(out: Path) -> dict[str, float]:
     return numbers
 
 
+#: The parts table's columns recorded relative to the limit from the parts: column -> suffix.
+PARTS_RELATIVE = {"uncertainty": "uncertainty", "parts_uncertainty": "parts_uncertainty",
+                  "misfit": "misfit", "lateral_share": "lateral_share",
+                  "layers_share": "layers_share", "increments_share": "increments_share"}
+
+
+def convergence_parts(out: Path) -> dict[str, float]:
+    """Each row of ``data/convergence-parts-limits.csv`` (``parts_{case}_{stem}_...``): the
+    limit the one-at-a-time sequences give (``_limit``, SI), its uncertainties, misfit and the
+    parts' shares of the base's error relative to it (:data:`PARTS_RELATIVE`), and, where the
+    `together` sequence has a limit of its own, that limit (``_together_limit``) and its relative
+    uncertainty, how far the parts' lies from it relative to it (``_vs_together``) and that
+    distance over the two uncertainties added (``_vs_together_spread``; its largest,
+    ``parts_vs_together_spread_max``)."""
+    numbers: dict[str, float] = {}
+    for r in data_rows("convergence-parts-limits.csv"):
+        case, stem = CELL_MEAN_CASES.get(r["case"]), REFINED_QUANTITIES.get(r["quantity"])
+        if case is None or stem is None:
+            continue
+        key, limit = f"parts_{case}_{stem}", float(r["limit"])
+        numbers[f"{key}_limit"] = limit
+        numbers.update({f"{key}_{suffix}": float(r[column]) / abs(limit)
+                        for column, suffix in PARTS_RELATIVE.items()})
+        if r["together_behaviour"] == "monotone":
+            own = float(r["together_limit"])
+            numbers[f"{key}_together_limit"] = own
+            numbers[f"{key}_together_uncertainty"] = float(r["together_uncertainty"]) / abs(own)
+            numbers[f"{key}_vs_together"] = (limit - own) / abs(own)
+            numbers[f"{key}_vs_together_spread"] = abs(limit - own) / (
+                float(r["uncertainty"]) + float(r["together_uncertainty"]))
+    numbers["parts_vs_together_spread_max"] = max(
+        v for k, v in numbers.items() if k.endswith("_vs_together_spread"))
+    return numbers
+
+
+#: The certified quantities whose lateral zigzag ``contact_edge`` records: quantity -> stem.
+EDGE_QUANTITIES = {q: REFINED_QUANTITIES[q] for q in (
+    "approach_at_peak_load", "print_depth_refined", "max_plastic_strain_refined",
+    "max_plastic_strain_refined_depth", "residual_s11_axis_min_refined",
+    "residual_s11_axis_refined_at_0.25a", "residual_s11_axis_refined_at_0.5a",
+    "residual_s11_axis_refined_at_1a", "residual_s11_axis_refined_at_1.5a",
+    "residual_s11_axis_refined_at_2a", "peak_pressure")}
+#: Neighbouring even counts of surface cells the zigzag compares (cells per side).
+EDGE_NEIGHBOUR = 2
+
+
+def _zigzag(values: dict[int, float]) -> float:
+    """Largest |f(n) − (f(n − 2) + f(n + 2)) / 2| over the counts n with both neighbours: a
+    smooth error of the cell size gives a second difference of order Δx² beside it."""
+    return max((abs(v - 0.5 * (values[n - EDGE_NEIGHBOUR] + values[n + EDGE_NEIGHBOUR]))
+                for n, v in values.items()
+                if n - EDGE_NEIGHBOUR in values and n + EDGE_NEIGHBOUR in values), default=math.nan)
+
+
+def contact_edge(out: Path) -> dict[str, float]:
+    """The contact's edge within its cells (``pipelines/contact_edge_scan.py``,
+    ``pipelines/convergence.py``): the elastic Hertz scan's approach error against δ = a²/R,
+    smallest and largest (``edge_hertz_error_min``, ``_max``) and its largest zigzag relative
+    to δ (``edge_hertz_zigzag``), the same with the contact on 2 × 2 sub-cells
+    (``edge_hertz_subcells_zigzag``); the 650 mN case's loaded cells against the Hertz radius in
+    cells per count (``edge_650_cells_{nx}``, ``edge_650_hertz_cells_{nx}``); its lateral scan's
+    zigzag per certified quantity relative to the certificate's scale
+    (``edge_650_zigzag_{stem}``) and the largest (``edge_650_zigzag_max``); and each quantity's
+    change from 128² to 192² cells of the one-at-a-time lateral sequence, on the same scale
+    (``edge_650_step_{stem}``), and that change over the zigzag: its largest among the
+    quantities whose lateral sequence turns (``edge_650_ratio_turn_max``), its smallest among
+    those whose sequence converges (``edge_650_ratio_converge_min``)."""
+    hertz = data_rows("contact-edge-hertz.csv")
+    errors = {int(r["nx"]): float(r["approach_error"]) for r in hertz}
+    exact = float(hertz[0]["approach"]) / (1.0 + float(hertz[0]["approach_error"]))
+    numbers = {"edge_hertz_error_min": min(errors.values()),
+               "edge_hertz_error_max": max(errors.values()),
+               "edge_hertz_zigzag": _zigzag({int(r["nx"]): float(r["approach"]) for r in hertz})
+               / exact,
+               "edge_hertz_subcells_zigzag": _zigzag(
+                   {int(r["nx"]): float(r["approach"])
+                    for r in data_rows("contact-edge-hertz-subcells.csv")}) / exact}
+    for r in data_rows("contact-edge-650.csv"):
+        numbers[f"edge_650_cells_{r['nx']}"] = float(r["edge_cells"])
+        numbers[f"edge_650_hertz_cells_{r['nx']}"] = float(r["hertz_radius"]) / float(r["cell"])
+    scale = {r["quantity"]: float(r["scale"]) for r in data_rows("convergence-certified.csv")
+             if r["case"] == "nanoindentation-650mN"}
+    scan: dict[str, dict[int, float]] = {}
+    for r in data_rows("convergence-650-lateral-scan.csv"):
+        if r["quantity"] in EDGE_QUANTITIES and r["value"]:
+            scan.setdefault(r["quantity"], {})[int(r["nx"])] = float(r["value"])
+    lateral: dict[str, dict[int, float]] = {}
+    for r in data_rows("convergence-parts-steps6.csv"):
+        if (r["case"] == "nanoindentation-650mN" and r["sequence"] == "lateral"
+                and r["quantity"] in EDGE_QUANTITIES and r["value"]):
+            lateral.setdefault(r["quantity"], {})[int(r["nx"])] = float(r["value"])
+    for quantity, stem in EDGE_QUANTITIES.items():
+        numbers[f"edge_650_zigzag_{stem}"] = _zigzag(scan[quantity]) / scale[quantity]
+        numbers[f"edge_650_step_{stem}"] = (lateral[quantity][192]
+                                            - lateral[quantity][128]) / scale[quantity]
+    numbers["edge_650_zigzag_max"] = max(numbers[f"edge_650_zigzag_{stem}"]
+                                         for stem in EDGE_QUANTITIES.values())
+    behaviour = {r["quantity"]: r["behaviour"] for r in data_rows(
+        "convergence-parts-steps6-summary.csv")
+        if r["case"] == "nanoindentation-650mN" and r["sequence"] == "lateral"}
+    ratios = {q: abs(numbers[f"edge_650_step_{s}"]) / numbers[f"edge_650_zigzag_{s}"]
+              for q, s in EDGE_QUANTITIES.items()}
+    numbers["edge_650_ratio_turn_max"] = max(r for q, r in ratios.items()
+                                             if behaviour[q] != "monotone")
+    numbers["edge_650_ratio_converge_min"] = min(r for q, r in ratios.items()
+                                                 if behaviour[q] == "monotone")
+    return numbers
+
+
 #: The groups of this module: name -> (speed, function of the output folder).
 GROUPS = {"convergence_certified": ("fast", convergence_certified),
+          "convergence_parts": ("fast", convergence_parts),
+          "contact_edge": ("fast", contact_edge),
           "press_increments_doubled": ("fast", press_increments_doubled),
           "press_load_phases": ("fast", press_load_phases),
           "press_pressure_profile": ("fast", press_pressure_profile),

@@ -19,12 +19,14 @@ from sacflow.studies.certify import (
     LIMIT,
     NO_LIMIT,
     OUTSIDE,
+    PARTS,
     WITHIN,
     certify,
     level_discretisation,
     level_values,
     plot_certificates,
 )
+from sacflow.studies.error_parts import PartsLimit
 from sacflow.studies.richardson import MONOTONE, extrapolate
 
 F_STAR, C_GRID, P_GRID, D_WINDOW, Q_WINDOW = 80.0, -3.0, 2.0, -5.0, 3.0
@@ -104,6 +106,24 @@ def test_a_together_sequence_without_a_limit_uses_its_finest_level():
     assert got.verdict == WITHIN  # an oscillating sequence keeps its spread as uncertainty
     diverging = {**together, "behaviour": "diverging", "uncertainty": math.nan}
     assert certify(diverging, window, first, F_STAR).verdict == NO_LIMIT
+
+
+def test_a_limit_from_the_parts_stands_in_only_where_the_together_sequence_has_none():
+    together, window, first = sequences(1.0)
+    parts = PartsLimit(limit=F_STAR + 0.01, uncertainty=0.02, parts_uncertainty=0.015,
+                       misfit=0.005, base_errors={}, discrepancies=())
+    diverging = {**together, "behaviour": "diverging", "limit": math.nan,
+                 "uncertainty": math.nan}
+    got = certify(diverging, window, first, F_STAR, parts=parts)
+    assert got.together_kind == PARTS
+    assert got.together_limit == parts.limit
+    assert got.together_uncertainty == parts.uncertainty
+    assert got.limit == pytest.approx(parts.limit + got.window_shift)
+    assert got.verdict != NO_LIMIT  # without the parts the diverging sequence has none
+    assert certify(diverging, window, first, F_STAR).verdict == NO_LIMIT
+    kept = certify(together, window, first, F_STAR, parts=parts)
+    assert kept.together_kind == LIMIT
+    assert kept.together_limit == together["limit"]
 
 
 def test_a_window_sequence_without_a_limit_is_refused():
@@ -220,3 +240,33 @@ def test_a_plot_that_cannot_be_written_is_a_message_and_leaves_nothing(tmp_path)
         write_figure(Figure(), blocked / "certified.png")
     write_figure(Figure(), tmp_path / "new" / "certified.png")
     assert sorted(p.name for p in (tmp_path / "new").iterdir()) == ["certified.png"]
+
+
+def test_the_stored_parts_limits_follow_from_the_stored_study_tables():
+    """``data/convergence-parts-limits.csv`` is what ``pipelines/convergence_certify.py
+    --parts-table`` computes from the one-at-a-time sequences, and the certificate takes such a
+    limit exactly where the `together` sequence has none."""
+    import csv
+    import sys
+
+    root = Path(__file__).resolve().parents[1]
+    sys.path.insert(0, str(root / "pipelines"))
+    import convergence_certify
+
+    with (root / "data" / "convergence-parts-limits.csv").open(encoding="utf-8") as f:
+        stored = {(r["case"], r["quantity"]): r for r in csv.DictReader(f)}
+    found = {(p.case, p.quantity): p for case, sources in convergence_certify.SOURCES.items()
+             for p in convergence_certify.parts_limits(case, sources).values()}
+    assert set(found) == set(stored)
+    for key, p in found.items():
+        assert float(stored[key]["limit"]) == pytest.approx(p.found.limit, rel=1e-9), key
+        assert float(stored[key]["uncertainty"]) == pytest.approx(p.found.uncertainty, rel=1e-9)
+    with (root / "data" / "convergence-certified.csv").open(encoding="utf-8") as f:
+        certified = list(csv.DictReader(f))
+    for row in certified:
+        key = (row["case"], row["quantity"])
+        if row["together_kind"] == PARTS:
+            assert key in found and found[key].together["behaviour"] != MONOTONE, key
+            assert float(row["together_limit"]) == pytest.approx(found[key].found.limit)
+        elif key in found:
+            assert row["together_kind"] == LIMIT, key

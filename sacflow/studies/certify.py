@@ -38,10 +38,11 @@ from matplotlib.figure import Figure
 
 from sacflow.errors import SacflowError
 from sacflow.studies.convergence_table import TARGET_ERROR
+from sacflow.studies.error_parts import PartsLimit
 from sacflow.studies.richardson import MONOTONE, relative_errors
 
 __all__ = ["CERTIFIED_COLUMNS", "DEPTH_TOLERANCE", "FINEST", "LIMIT", "NO_LIMIT", "OUTSIDE",
-           "WITHIN", "Certificate", "certify", "level_discretisation", "level_values",
+           "PARTS", "WITHIN", "Certificate", "certify", "level_discretisation", "level_values",
            "plot_certificates", "transfer"]
 
 #: One row per case and quantity: the shipped value (the traction beyond the box removed), the
@@ -53,9 +54,10 @@ CERTIFIED_COLUMNS: tuple[str, ...] = (
     "together_kind", "window_shift", "window_uncertainty", "transfer", "limit", "uncertainty",
     "scale", "relative_uncertainty", "error", "value_error", "verdict",
 )
-#: ``together_kind`` of a `together` sequence with a Richardson limit, and of one without
-#: (oscillating, or no order), whose finest level stands in for it.
-LIMIT, FINEST = "limit", "finest"
+#: ``together_kind`` of a `together` sequence with a Richardson limit, of one without
+#: (oscillating, or no order) whose finest level stands in for it, and of one without whose
+#: limit the one-at-a-time sequences give (:mod:`sacflow.studies.error_parts`).
+LIMIT, FINEST, PARTS = "limit", "finest", "parts"
 #: Relative tolerance on a recorded level's box depth against a config's: the tables store it
 #: to ten significant digits.
 DEPTH_TOLERANCE = 1e-8
@@ -93,15 +95,16 @@ class Certificate:
 
 def certify(together: Mapping[str, Any], window: Mapping[str, Any], window_first: float,
             shipped_value: float, transfer: float = math.nan, scale: float | None = None,
-            target: float = TARGET_ERROR) -> Certificate:
+            target: float = TARGET_ERROR, parts: PartsLimit | None = None) -> Certificate:
     """Compare the shipped value with f* = L_T + (L_W − f_W) (the module's equations).
 
     Parameters
     ----------
     together
         The `together` summary row of the case and quantity (:func:`read_summary`): a
-        monotone one gives L_T ± U_T; otherwise its finest level stands in, with its
-        uncertainty (half the range of an oscillating sequence; none for a diverging one).
+        monotone one gives L_T ± U_T; otherwise ``parts`` stands in when given, else its
+        finest level, with its uncertainty (half the range of an oscillating sequence; none
+        for a diverging one).
     window
         The `window` summary row of the same case and quantity (the traction beyond the box
         left out); it must be monotone, with a limit L_W ± U_W.
@@ -116,6 +119,10 @@ def certify(together: Mapping[str, Any], window: Mapping[str, Any], window_first
         magnitude of the profile for a point of a profile that changes sign.
     target
         The relative error the certificate is for.
+    parts
+        The limit the one-at-a-time sequences give (at the shipped window, the traction
+        beyond the box left out, as the `together` sequence), for a `together` sequence
+        without a limit of its own.
 
     Raises
     ------
@@ -127,8 +134,14 @@ def certify(together: Mapping[str, Any], window: Mapping[str, Any], window_first
                            f"{window['behaviour']}, with no limit to correct the `together` "
                            f"limit by; widen its windows (more levels) and run it again")
     monotone = together["behaviour"] == MONOTONE and math.isfinite(float(together["limit"]))
-    together_limit = float(together["limit"] if monotone else together["finest_value"])
-    together_uncertainty = float(together["uncertainty"])
+    if monotone:
+        kind, together_limit = LIMIT, float(together["limit"])
+        together_uncertainty = float(together["uncertainty"])
+    elif parts is not None:
+        kind, together_limit, together_uncertainty = PARTS, parts.limit, parts.uncertainty
+    else:
+        kind, together_limit = FINEST, float(together["finest_value"])
+        together_uncertainty = float(together["uncertainty"])
     shift = float(window["limit"]) - window_first
     limit = together_limit + shift
     uncertainty = (together_uncertainty + float(window["uncertainty"])
@@ -140,7 +153,7 @@ def certify(together: Mapping[str, Any], window: Mapping[str, Any], window_first
         case=str(together["case"]), quantity=str(together["quantity"]),
         unit=str(together["unit"]), shipped_value=shipped_value,
         together_limit=together_limit, together_uncertainty=together_uncertainty,
-        together_kind=LIMIT if monotone else FINEST, window_shift=shift,
+        together_kind=kind, window_shift=shift,
         window_uncertainty=float(window["uncertainty"]), transfer=transfer, limit=limit,
         uncertainty=uncertainty, scale=scale,
         relative_uncertainty=uncertainty / scale if scale != 0.0 else math.nan,

@@ -1,0 +1,54 @@
+"""``pipelines/contact_edge_scan.py``: a case at several lateral cell counts, the edge's phase."""
+
+from __future__ import annotations
+
+import csv
+import importlib.util
+from pathlib import Path
+
+import pytest
+
+from sacflow.errors import SacflowError
+from sacflow.mechanics.hertz import hertz_contact
+
+ROOT = Path(__file__).resolve().parent.parent
+HERTZ = ROOT / "configs" / "hertz-elastic.toml"
+#: The Hertz config (window ±1.5 a) on a few layers: a / Δx = nx / 3.
+TINY = ["grid.nz=4", "solver.fft_threads=1"]
+
+
+def pipeline():
+    spec = importlib.util.spec_from_file_location("contact_edge_scan",
+                                                  ROOT / "pipelines" / "contact_edge_scan.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_edge_phase_is_the_hertz_radius_in_cells_less_its_nearest_whole_number():
+    scan = pipeline()
+    hertz = hertz_contact(0.65, 105e-6, 210e9 / (1 - 0.3**2))
+    for nx, phase in ((24, 0.0), (26, 26 / 3 - 9), (28, 28 / 3 - 9)):
+        row = scan.scan_one(HERTZ, TINY, nx)
+        assert row["cell"] == pytest.approx(3.0 * hertz.a / nx, rel=1e-12)
+        assert row["edge_phase"] == pytest.approx(phase, abs=1e-9)
+        # the loaded cells of the axis row reach the Hertz edge to within a cell
+        assert abs(row["edge_cells"] - hertz.a / row["cell"]) <= 1.0
+        assert abs(row["approach_error"]) < 0.01  # δ = a²/R within 1 % on 8 cells per radius
+
+
+def test_the_table_has_a_row_per_count(tmp_path: Path, capsys):
+    table = tmp_path / "scan.csv"
+    assert pipeline().main([str(HERTZ), *TINY, "--nx", "12,14", "--table", str(table)]) == 0
+    with table.open(encoding="utf-8") as f:
+        rows = list(csv.DictReader(f))
+    assert [int(r["nx"]) for r in rows] == [12, 14]
+    assert "nx   12" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("text, words", [("12,x", "'x' is not a whole number"),
+                                         ("2", "too few")])
+def test_a_bad_cell_count_is_named(text, words):
+    with pytest.raises(SacflowError, match=words):
+        pipeline().cell_counts(text)
