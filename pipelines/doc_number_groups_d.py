@@ -419,6 +419,32 @@ def _zigzag(values: dict[int, float]) -> float:
                 if n - EDGE_NEIGHBOUR in values and n + EDGE_NEIGHBOUR in values), default=math.nan)
 
 
+def _lateral_zigzag(case: str, name: str) -> dict[str, float]:
+    """One case's zigzag per certified quantity at 120–136 cells per side
+    (``data/convergence-{case}-lateral-scan.csv``) and its lateral sequence's change from 128²
+    to 192² cells (``data/convergence-parts-steps6.csv``), both over the certificate's scale:
+    ``edge_{case}_zigzag_{stem}`` and ``edge_{case}_step_{stem}``."""
+    scale = {r["quantity"]: float(r["scale"]) for r in data_rows("convergence-certified.csv")
+             if r["case"] == name}
+    scan: dict[str, dict[int, float]] = {}
+    for r in data_rows(f"convergence-{case}-lateral-scan.csv"):
+        if r["quantity"] in EDGE_QUANTITIES and r["value"]:
+            scan.setdefault(r["quantity"], {})[int(r["nx"])] = float(r["value"])
+    lateral: dict[str, dict[int, float]] = {}
+    for r in data_rows("convergence-parts-steps6.csv"):
+        if (r["case"] == name and r["sequence"] == "lateral"
+                and r["quantity"] in EDGE_QUANTITIES and r["value"]):
+            lateral.setdefault(r["quantity"], {})[int(r["nx"])] = float(r["value"])
+    numbers: dict[str, float] = {}
+    for quantity, stem in EDGE_QUANTITIES.items():
+        if quantity not in scale or quantity not in scan:
+            continue
+        numbers[f"edge_{case}_zigzag_{stem}"] = _zigzag(scan[quantity]) / scale[quantity]
+        numbers[f"edge_{case}_step_{stem}"] = (lateral[quantity][192]
+                                               - lateral[quantity][128]) / scale[quantity]
+    return numbers
+
+
 def contact_edge(out: Path) -> dict[str, float]:
     """The contact's edge within its cells (``pipelines/contact_edge_scan.py``,
     ``pipelines/convergence.py``): the elastic Hertz scan's approach error against δ = a²/R,
@@ -427,11 +453,13 @@ def contact_edge(out: Path) -> dict[str, float]:
     (``edge_hertz_subcells_zigzag``); the 650 mN case's loaded cells against the Hertz radius in
     cells per count (``edge_650_cells_{nx}``, ``edge_650_hertz_cells_{nx}``); its lateral scan's
     zigzag per certified quantity relative to the certificate's scale
-    (``edge_650_zigzag_{stem}``) and the largest (``edge_650_zigzag_max``); and each quantity's
-    change from 128² to 192² cells of the one-at-a-time lateral sequence, on the same scale
-    (``edge_650_step_{stem}``), and that change over the zigzag: its largest among the
-    quantities whose lateral sequence turns (``edge_650_ratio_turn_max``), its smallest among
-    those whose sequence converges (``edge_650_ratio_converge_min``)."""
+    (``edge_650_zigzag_{stem}``, and the 190 mN case's, ``edge_190_...``) and the largest
+    (``edge_650_zigzag_max``); and each quantity's change from 128² to 192² cells of the
+    one-at-a-time lateral sequence, on the same scale (``edge_650_step_{stem}``,
+    ``edge_190_step_{stem}``: :func:`_lateral_zigzag`), and per case that change over the
+    zigzag: its largest among the quantities whose lateral sequence turns
+    (``edge_650_ratio_turn_max``, ``edge_190_...``), its smallest among those whose sequence
+    converges (``edge_650_ratio_converge_min``, ``edge_190_...``)."""
     hertz = data_rows("contact-edge-hertz.csv")
     errors = {int(r["nx"]): float(r["approach_error"]) for r in hertz}
     exact = float(hertz[0]["approach"]) / (1.0 + float(hertz[0]["approach_error"]))
@@ -445,32 +473,20 @@ def contact_edge(out: Path) -> dict[str, float]:
     for r in data_rows("contact-edge-650.csv"):
         numbers[f"edge_650_cells_{r['nx']}"] = float(r["edge_cells"])
         numbers[f"edge_650_hertz_cells_{r['nx']}"] = float(r["hertz_radius"]) / float(r["cell"])
-    scale = {r["quantity"]: float(r["scale"]) for r in data_rows("convergence-certified.csv")
-             if r["case"] == "nanoindentation-650mN"}
-    scan: dict[str, dict[int, float]] = {}
-    for r in data_rows("convergence-650-lateral-scan.csv"):
-        if r["quantity"] in EDGE_QUANTITIES and r["value"]:
-            scan.setdefault(r["quantity"], {})[int(r["nx"])] = float(r["value"])
-    lateral: dict[str, dict[int, float]] = {}
-    for r in data_rows("convergence-parts-steps6.csv"):
-        if (r["case"] == "nanoindentation-650mN" and r["sequence"] == "lateral"
-                and r["quantity"] in EDGE_QUANTITIES and r["value"]):
-            lateral.setdefault(r["quantity"], {})[int(r["nx"])] = float(r["value"])
-    for quantity, stem in EDGE_QUANTITIES.items():
-        numbers[f"edge_650_zigzag_{stem}"] = _zigzag(scan[quantity]) / scale[quantity]
-        numbers[f"edge_650_step_{stem}"] = (lateral[quantity][192]
-                                            - lateral[quantity][128]) / scale[quantity]
+    for case, name in (("650", "nanoindentation-650mN"), ("190", "nanoindentation-190mN")):
+        numbers.update(_lateral_zigzag(case, name))
     numbers["edge_650_zigzag_max"] = max(numbers[f"edge_650_zigzag_{stem}"]
                                          for stem in EDGE_QUANTITIES.values())
-    behaviour = {r["quantity"]: r["behaviour"] for r in data_rows(
-        "convergence-parts-steps6-summary.csv")
-        if r["case"] == "nanoindentation-650mN" and r["sequence"] == "lateral"}
-    ratios = {q: abs(numbers[f"edge_650_step_{s}"]) / numbers[f"edge_650_zigzag_{s}"]
-              for q, s in EDGE_QUANTITIES.items()}
-    numbers["edge_650_ratio_turn_max"] = max(r for q, r in ratios.items()
-                                             if behaviour[q] != "monotone")
-    numbers["edge_650_ratio_converge_min"] = min(r for q, r in ratios.items()
-                                                 if behaviour[q] == "monotone")
+    summary = data_rows("convergence-parts-steps6-summary.csv")
+    for case, name in (("650", "nanoindentation-650mN"), ("190", "nanoindentation-190mN")):
+        behaviour = {r["quantity"]: r["behaviour"] for r in summary
+                     if r["case"] == name and r["sequence"] == "lateral"}
+        ratios = {q: abs(numbers[f"edge_{case}_step_{s}"]) / numbers[f"edge_{case}_zigzag_{s}"]
+                  for q, s in EDGE_QUANTITIES.items() if f"edge_{case}_step_{s}" in numbers}
+        numbers[f"edge_{case}_ratio_turn_max"] = max(r for q, r in ratios.items()
+                                                     if behaviour[q] != "monotone")
+        numbers[f"edge_{case}_ratio_converge_min"] = min(r for q, r in ratios.items()
+                                                         if behaviour[q] == "monotone")
     return numbers
 
 
