@@ -24,6 +24,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+import time
 from pathlib import Path
 from typing import Any
 
@@ -66,8 +67,6 @@ def cell_counts(text: str) -> list[int]:
 
 def scan_one(path: Path, overrides: list[str], nx: int) -> dict[str, Any]:
     """Run the case at ``nx`` × ``nx`` surface cells and return its row of :data:`COLUMNS`."""
-    import time
-
     from sacflow.config.solver_inputs import simulation_for
     from sacflow.solver.history import light_history
     from sacflow.storage.case_file import load_case
