@@ -16,7 +16,6 @@ with that limit. It runs nothing: every number comes from the study's tables und
 from __future__ import annotations
 
 import argparse
-import csv
 import math
 import sys
 from dataclasses import dataclass
@@ -27,10 +26,12 @@ from sacflow.studies.certify import (
     CERTIFIED_COLUMNS,
     DEPTH_TOLERANCE,
     Certificate,
+    Level,
     certify,
     level_discretisation,
     level_values,
     plot_certificates,
+    sequence_levels,
     transfer,
 )
 from sacflow.studies.convergence import STUDY_CASES, base_case, shipped_discretisation
@@ -199,25 +200,6 @@ PARTS_COLUMNS: tuple[str, ...] = (
     "parts_uncertainty", "misfit", "misfit_level", "uncertainty", "together_behaviour",
     "together_limit", "together_uncertainty",
 )
-
-Level = tuple[int, int, int]
-
-
-def sequence_levels(path: Path, case: str, sequence: str) -> dict[Level, dict[str, float]]:
-    """Each level of one sequence of a levels table: (cells, layers, increments) -> quantities."""
-    if not path.is_file():
-        raise SacflowError(f"no levels table {path}: give the --table of a finished study")
-    out: dict[Level, dict[str, float]] = {}
-    with path.open(newline="", encoding="utf-8") as f:
-        for r in csv.DictReader(f):
-            if r["case"] == case and r["sequence"] == sequence and r["value"]:
-                key = (int(r["nx"]), int(r["nz"]), int(r["increments"]))
-                out.setdefault(key, {})[r["quantity"]] = float(r["value"])
-    if not out:
-        raise SacflowError(f"{path} has no {sequence} sequence of {case}: run "
-                           f"pipelines/convergence.py --sequences {sequence} into it")
-    return out
-
 
 @dataclass(frozen=True)
 class PartsFound:

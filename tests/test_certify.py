@@ -25,6 +25,7 @@ from sacflow.studies.certify import (
     level_discretisation,
     level_values,
     plot_certificates,
+    sequence_levels,
 )
 from sacflow.studies.error_parts import PartsLimit
 from sacflow.studies.richardson import MONOTONE, extrapolate
@@ -141,6 +142,19 @@ def test_level_values_reads_one_level_and_names_what_is_missing(tmp_path: Path):
         level_values(table, "c", "window", 2)
     with pytest.raises(SacflowError, match="no levels table"):
         level_values(tmp_path / "none.csv", "c", "window", 0)
+
+
+def test_sequence_levels_keys_each_level_by_what_it_ran(tmp_path: Path):
+    table = tmp_path / "levels.csv"
+    table.write_text("case,sequence,level,nx,nz,increments,quantity,value\n"
+                     "c,lateral,0,32,24,15,q,1.5\nc,lateral,1,64,24,15,q,1.6\n"
+                     "c,lateral,1,64,24,15,r,\nc,layers,0,64,12,15,q,1.4\n")
+    assert sequence_levels(table, "c", "lateral") == {(32, 24, 15): {"q": 1.5},
+                                                      (64, 24, 15): {"q": 1.6}}
+    with pytest.raises(SacflowError, match="no increments sequence of c"):
+        sequence_levels(table, "c", "increments")
+    with pytest.raises(SacflowError, match="no levels table"):
+        sequence_levels(tmp_path / "none.csv", "c", "lateral")
 
 
 def test_level_discretisation_reads_what_the_level_ran(tmp_path: Path):

@@ -42,8 +42,8 @@ from sacflow.studies.error_parts import PartsLimit
 from sacflow.studies.richardson import MONOTONE, relative_errors
 
 __all__ = ["CERTIFIED_COLUMNS", "DEPTH_TOLERANCE", "FINEST", "LIMIT", "NO_LIMIT", "OUTSIDE",
-           "PARTS", "WITHIN", "Certificate", "certify", "level_discretisation", "level_values",
-           "plot_certificates", "transfer"]
+           "PARTS", "WITHIN", "Certificate", "Level", "certify", "level_discretisation",
+           "level_values", "plot_certificates", "sequence_levels", "transfer"]
 
 #: One row per case and quantity: the shipped value (the traction beyond the box removed), the
 #: `together` limit (or its finest level where it has none) and its uncertainty, the window's
@@ -172,13 +172,43 @@ def transfer(shipped_on: float, shipped_off: float, first_on: float, first_off: 
     return abs((shipped_on - shipped_off) - (first_on - first_off))
 
 
-def _level_rows(path: Path, case: str, sequence: str, level: int) -> list[dict[str, str]]:
-    """Return the rows of one level of a levels table, or raise a message naming the fix."""
+#: A level of a levels table by what it ran: (cells per side, layers, increments).
+Level = tuple[int, int, int]
+
+
+def _sequence_rows(path: Path, case: str, sequence: str) -> list[dict[str, str]]:
+    """Return the rows of one sequence of a levels table (``LEVEL_COLUMNS``)."""
     if not path.is_file():
         raise SacflowError(f"no levels table {path}: give the --table of a finished study")
     with path.open(newline="", encoding="utf-8") as f:
-        rows = [r for r in csv.DictReader(f) if r["case"] == case
-                and r["sequence"] == sequence and r["level"] == str(level)]
+        return [r for r in csv.DictReader(f) if r["case"] == case and r["sequence"] == sequence]
+
+
+def sequence_levels(path: Path, case: str, sequence: str) -> dict[Level, dict[str, float]]:
+    """Return each level of one sequence of a levels table, keyed by what it ran.
+
+    The key is (cells per side, layers, increments), the value the level's quantities (those
+    with a value).
+
+    Raises
+    ------
+    SacflowError
+        When the table does not have that case and sequence.
+    """
+    out: dict[Level, dict[str, float]] = {}
+    for r in _sequence_rows(path, case, sequence):
+        if r["value"]:
+            key = (int(r["nx"]), int(r["nz"]), int(r["increments"]))
+            out.setdefault(key, {})[r["quantity"]] = float(r["value"])
+    if not out:
+        raise SacflowError(f"{path} has no {sequence} sequence of {case}: run "
+                           f"pipelines/convergence.py --sequences {sequence} into it")
+    return out
+
+
+def _level_rows(path: Path, case: str, sequence: str, level: int) -> list[dict[str, str]]:
+    """Return the rows of one level of a levels table, or raise a message naming the fix."""
+    rows = [r for r in _sequence_rows(path, case, sequence) if r["level"] == str(level)]
     if not rows:
         raise SacflowError(f"{path} has no level {level} of {case}'s {sequence} sequence: "
                            f"give the levels table the study wrote with that sequence")
