@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 
 from sacflow.errors import SacflowError
-from sacflow.studies.convergence_table import write_csv, write_figure
+from sacflow.studies.convergence_table import refuse_existing_table, write_csv, write_figure
 
 #: The table's columns (SI units; ``edge_cells`` and ``edge_phase`` in cells).
 COLUMNS = ("case", "nx", "cell", "hertz_radius", "edge_cells", "edge_phase", "approach",
@@ -116,6 +116,8 @@ def plot(rows: list[dict[str, Any]]) -> Any:
 
 def main(argv: list[str] | None = None) -> int:
     args = parse(argv)
+    for path in (args.table, args.plot):  # before any run: a user's file is not replaced
+        refuse_existing_table(path, args.overwrite)
     try:
         counts = cell_counts(args.nx)
         rows = []

@@ -51,3 +51,12 @@ def test_the_table_has_a_row_per_count(tmp_path: Path, capsys):
 def test_a_bad_cell_count_is_named(text, words):
     with pytest.raises(SacflowError, match=words):
         pipeline().cell_counts(text)
+
+
+def test_an_existing_table_stops_the_scan_before_it_runs(tmp_path: Path, capsys):
+    table = tmp_path / "scan.csv"
+    table.write_text("the user's own\n")
+    with pytest.raises(SystemExit, match="exists; nothing was changed"):
+        pipeline().main([str(HERTZ), *TINY, "--nx", "12", "--table", str(table)])
+    assert "nx   12" not in capsys.readouterr().out  # nothing ran
+    assert table.read_text() == "the user's own\n"
