@@ -20,6 +20,7 @@ import math
 import sys
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from sacflow.errors import SacflowError
 from sacflow.studies.certify import (
@@ -58,7 +59,9 @@ class Sources:
     is the levels table of the lateral, layers and increments sequences refined one at a time
     from the study's base (its summary the same name with ``-summary``): the limit they add
     up to (:mod:`sacflow.studies.error_parts`) stands in where the `together` sequence has
-    none.
+    none. ``parts_lateral``, when given, is a levels table of the lateral cells refined further
+    from the base's layers and increments: the lateral part is extrapolated through its levels
+    instead of the ``parts`` table's lateral sequence (:func:`lateral_part_rows`).
     """
 
     together: str
@@ -67,6 +70,7 @@ class Sources:
     shipped_far: str
     shipped_off: tuple[str, str, int] | None = None
     parts: str | None = None
+    parts_lateral: str | None = None
 
     def window_summary(self) -> str:
         """The window levels table's summary."""
@@ -75,7 +79,10 @@ class Sources:
 
 #: Case -> its tables. The three nano-indentations' one-at-a-time sequences run from the
 #: study's base grid to h = 1/6, extrapolated through their finest three levels as their
-#: `together` sequences. The 650 mN case's window sequence runs at its shipped grid, the 190 mN
+#: `together` sequences; their lateral part is the lateral cells refined further, 128², 160² and
+#: 200² cells at the base's layers and increments: a constant ratio, each count putting the
+#: Hertz contact's edge on a cell boundary (docs/convergence.md, "The lateral cells refined
+#: further"). The 650 mN case's window sequence runs at its shipped grid, the 190 mN
 #: and linear-hardening cases' at the study's base grid (64² × 24 cells, 10 + 5 increments),
 #: the press's at 48² × 64 cells with 20 + 6 increments. The press's `together` is the one with
 #: its contact on sub-cells whose pressure loads the body, as it ships, to a fourth level and
@@ -89,15 +96,15 @@ SOURCES = {
     "nanoindentation-650mN": Sources(
         "convergence-650-steps6-summary.csv", "convergence-window-650.csv",
         "convergence-window-650-far.csv", "convergence-window-650-far-summary.csv",
-        parts="convergence-parts-steps6.csv"),
+        parts="convergence-parts-steps6.csv", parts_lateral="convergence-parts-lateral-fine.csv"),
     "nanoindentation-190mN": Sources(
         "convergence-190-steps6-summary.csv", "convergence-window-base.csv",
         "convergence-window-base-far.csv", "convergence-window-base-far-summary.csv",
-        parts="convergence-parts-steps6.csv"),
+        parts="convergence-parts-steps6.csv", parts_lateral="convergence-parts-lateral-fine.csv"),
     "nanoindentation-linear-650mN": Sources(
         "convergence-shipped-summary.csv", "convergence-window-base.csv",
         "convergence-window-base-far.csv", "convergence-window-base-far-summary.csv",
-        parts="convergence-parts-steps6.csv"),
+        parts="convergence-parts-steps6.csv", parts_lateral="convergence-parts-lateral-fine.csv"),
     "dent-from-indentation-press": Sources(
         "convergence-press-subcell-stress4-summary.csv", "convergence-press-window.csv",
         "convergence-press-window-far.csv",
@@ -230,6 +237,44 @@ class PartsFound:
         }
 
 
+#: Relative slack of a finer lateral table's steps against the parts table's (both h = n₀/nx).
+STEP_SLACK = 1e-9
+
+
+def lateral_part_rows(case: str, table: Path, base: Level,
+                      coarsest_cells: int) -> dict[tuple[str, str, str], dict[str, Any]]:
+    """Return the summary rows of ``case``'s lateral sequence in ``table``, checked to refine
+    the lateral cells alone from ``base``.
+
+    Each level must run the base's layers and increments on more cells than the base, and the
+    summary's steps must be relative to the parts table's coarsest lateral level
+    (``coarsest_cells``), so that the part's error C h^p is read on the same scale of h.
+
+    Raises
+    ------
+    SacflowError
+        When a level refines anything but the lateral cells, is not finer than the base, or the
+        steps are on another scale.
+    """
+    levels = sequence_levels(table, case, "lateral")
+    for nx, nz, increments in levels:
+        if (nz, increments) != base[1:] or nx <= base[0]:
+            raise SacflowError(
+                f"{table}: {case}'s lateral level {nx}² × {nz}, {increments} increments does "
+                f"not refine the lateral cells alone from the base {base[0]}² × {base[1]}, "
+                f"{base[2]} increments: run it with the base's layers and increments")
+    summary = read_summary(table.with_name(table.stem + "-summary.csv"))
+    rows = {k: r for k, r in summary.items() if k[0] == case and k[1] == "lateral"}
+    expected = coarsest_cells / max(nx for nx, _, _ in levels)
+    for (_, _, name), r in rows.items():
+        if abs(finest_step(r) / expected - 1.0) > STEP_SLACK:
+            raise SacflowError(
+                f"{table}: {case}'s {name} has its finest step {finest_step(r):.6g}, not "
+                f"{expected:.6g} = {coarsest_cells}/{max(nx for nx, _, _ in levels)}: run it "
+                f"with --steps relative to {coarsest_cells} cells, as the parts table")
+    return rows
+
+
 def parts_limits(case: str, sources: Sources, data: Path = DATA) -> dict[str, PartsFound]:
     """Each quantity's limit from the one-at-a-time sequences of ``sources.parts`` (if any).
 
@@ -250,6 +295,8 @@ def parts_limits(case: str, sources: Sources, data: Path = DATA) -> dict[str, Pa
     base = shared.pop()
     index = dict(zip(PART_PARAMETERS, range(3), strict=True))
     coarsest = {seq: min(lv[index[seq]] for lv in levels[seq]) for seq in PART_PARAMETERS}
+    lateral = summary if sources.parts_lateral is None else lateral_part_rows(
+        case, data / sources.parts_lateral, base, coarsest["lateral"])
 
     def steps(level: Level) -> dict[str, float]:
         """Each parameter's step h, relative to its sequence's coarsest level as the study's."""
@@ -268,7 +315,8 @@ def parts_limits(case: str, sources: Sources, data: Path = DATA) -> dict[str, Pa
     shipped_level = (shipped.nx, shipped.nz, shipped.total_increments)
     out: dict[str, PartsFound] = {}
     for name in QUANTITIES:
-        rows = {seq: summary.get((case, seq, name)) for seq in PART_PARAMETERS}
+        rows = {seq: (lateral if seq == "lateral" else summary).get((case, seq, name))
+                for seq in PART_PARAMETERS}
         fit = together.get((case, "together", name))
         if fit is None or any(r is None for r in rows.values()) or name not in levels[
                 "lateral"][base]:

@@ -18,7 +18,8 @@ Fast groups are closed forms, ``sacflow validate``'s Hertz numbers and runs of a
 ``-m slow``. The groups of README.md, docs/compare.md, docs/dent-study.md and docs/inclusions.md
 are in ``pipelines/doc_number_groups_a.py``, those of docs/inclusions.md's own hardening in
 ``pipelines/doc_number_groups_c.py``, docs/convergence.md's certified limits in
-``pipelines/doc_number_groups_d.py``; numbers that are not computed (inputs, literature
+``pipelines/doc_number_groups_d.py`` and their lateral cells refined further in
+``pipelines/doc_number_groups_e.py``; numbers that are not computed (inputs, literature
 values, definitions, measurements) are rows of ``data/doc_inputs.csv`` instead
 (``tests/test_doc_inventory.py`` checks that every number of the docs is in one table or the
 other).
@@ -41,6 +42,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import doc_number_groups_a as groups_a  # noqa: E402  (README.md, compare, dent study, inclusions)
 import doc_number_groups_c as groups_c  # noqa: E402  (inclusions: own hardening)
 import doc_number_groups_d as groups_d  # noqa: E402  (convergence: the certified limits)
+import doc_number_groups_e as groups_e  # noqa: E402  (convergence: the finer lateral cells)
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "pipelines"))
@@ -384,7 +386,8 @@ _OWN: dict[str, tuple[str, Callable[[Path], dict[str, float]]]] = {
 }
 #: Every group: this script's and its sibling modules' (each exports ``GROUPS``).
 GROUPS: dict[str, tuple[str, Callable[[Path], dict[str, float]]]] = {}
-for _groups in (_OWN, groups_a.GROUPS, GROUPS_B, RUNS_B, groups_c.GROUPS, groups_d.GROUPS):
+for _groups in (_OWN, groups_a.GROUPS, GROUPS_B, RUNS_B, groups_c.GROUPS, groups_d.GROUPS,
+                groups_e.GROUPS):
     if set(_groups) & set(GROUPS):
         raise ValueError(f"doc-number groups named twice: {sorted(set(_groups) & set(GROUPS))}")
     GROUPS.update(_groups)

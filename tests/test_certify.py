@@ -284,3 +284,43 @@ def test_the_stored_parts_limits_follow_from_the_stored_study_tables():
             assert float(row["together_limit"]) == pytest.approx(found[key].found.limit)
         elif key in found:
             assert row["together_kind"] == LIMIT, key
+
+
+def test_a_finer_lateral_table_must_refine_the_lateral_cells_alone_on_the_parts_scale(tmp_path):
+    """The parts' finer lateral sequence (``Sources.parts_lateral``) is read only when each of
+    its levels runs the base's layers and increments on more cells, and its steps are on the
+    parts table's scale (h = 32 / nx): otherwise C h^p would be read at the wrong h."""
+    import csv
+    import shutil
+    import sys
+
+    root = Path(__file__).resolve().parents[1]
+    sys.path.insert(0, str(root / "pipelines"))
+    import convergence_certify
+
+    case = "nanoindentation-650mN"
+    sources = convergence_certify.SOURCES[case]
+    assert sources.parts_lateral is not None
+    table = root / "data" / sources.parts_lateral
+    base = (64, 24, 15)
+    rows = convergence_certify.lateral_part_rows(case, table, base, 32)
+    assert rows and {k[:2] for k in rows} == {(case, "lateral")}
+    with pytest.raises(SacflowError, match="relative to 64 cells"):
+        convergence_certify.lateral_part_rows(case, table, base, 64)
+    with pytest.raises(SacflowError, match="lateral cells alone"):
+        convergence_certify.lateral_part_rows(case, table, (128, 24, 15), 32)
+    with table.open(newline="", encoding="utf-8") as f:
+        reader = csv.DictReader(f)
+        fields, levels = list(reader.fieldnames or ()), list(reader)
+    for r in levels:
+        if r["case"] == case and r["nx"] == "160":
+            r["nz"] = "48"
+    changed = tmp_path / table.name
+    with changed.open("w", newline="", encoding="utf-8") as f:
+        writer = csv.DictWriter(f, fieldnames=fields)
+        writer.writeheader()
+        writer.writerows(levels)
+    summary = table.with_name(table.stem + "-summary.csv")
+    shutil.copy(summary, tmp_path / summary.name)
+    with pytest.raises(SacflowError, match="160² × 48"):
+        convergence_certify.lateral_part_rows(case, changed, base, 32)
