@@ -9,8 +9,11 @@ approach, the peak pressure, the loaded cells of the row nearest the axis on the
 (``edge_cells``: the contact radius in cells) and where the edge of the Hertz contact falls
 in its cell, ``edge_phase`` = a / Δx less its nearest whole number, with a the Hertz contact
 radius of the case: 0 when that edge lies on a cell boundary, ±0.5 when it lies on a cell's
-centre (the axis lies on a cell corner with an even number of cells). For an elastic case
-the approach is compared with Hertz's δ = a²/R (``approach_error``).
+centre (the axis lies on a cell corner with an even number of cells). The contact's own
+radius, which a plastic body widens beyond Hertz's, is that of the circle with the loaded
+cells' area, ``contact_radius`` = (N ΔA / π)^½, and ``contact_phase`` is where its edge falls
+in its cell, as ``edge_phase``. For an elastic case the approach is compared with Hertz's
+δ = a²/R (``approach_error``).
 
 Refining the cells by a factor of two keeps the edge's phase when a / Δx is a whole number;
 refining by 1.5 need not. docs/convergence.md reads from such scans that the elastic
@@ -31,11 +34,12 @@ from typing import Any
 import numpy as np
 
 from sacflow.errors import SacflowError
-from sacflow.studies.convergence_table import refuse_existing_table, write_csv, write_figure
+from sacflow.studies.convergence_table import refuse_existing_table, write_outputs
 
-#: The table's columns (SI units; ``edge_cells`` and ``edge_phase`` in cells).
-COLUMNS = ("case", "nx", "cell", "hertz_radius", "edge_cells", "edge_phase", "approach",
-           "approach_error", "peak_pressure", "elapsed")
+#: The table's columns (SI units; ``edge_cells``, ``edge_phase`` and ``contact_phase`` in
+#: cells).
+COLUMNS = ("case", "nx", "cell", "hertz_radius", "edge_cells", "edge_phase", "contact_radius",
+           "contact_phase", "approach", "approach_error", "peak_pressure", "elapsed")
 
 
 def parse(argv: list[str] | None) -> argparse.Namespace:
@@ -84,11 +88,13 @@ def scan_one(path: Path, overrides: list[str], nx: int) -> dict[str, Any]:
     cell = float(x1[1] - x1[0])
     hertz = case.hertz()
     loaded = int(np.count_nonzero(profile > 0.0))
+    radius = math.sqrt(np.count_nonzero(pressure > 0.0) * cell * float(x2[1] - x2[0]) / math.pi)
     approach = float(states[top].approach)
     elastic = case.body.hardening.law == "elastic"
     exact = hertz.approach if elastic else math.nan
     return {"case": case.name, "nx": nx, "cell": cell, "hertz_radius": hertz.a,
             "edge_cells": loaded, "edge_phase": hertz.a / cell - round(hertz.a / cell),
+            "contact_radius": radius, "contact_phase": radius / cell - round(radius / cell),
             "approach": approach,
             "approach_error": (approach - exact) / exact if elastic else math.nan,
             "peak_pressure": float(states[top].max_pressure), "elapsed": elapsed}
@@ -127,10 +133,7 @@ def main(argv: list[str] | None = None) -> int:
                   f"{row['edge_cells']} cells, phase {row['edge_phase']:.3f}, "
                   f"{row['elapsed']:.1f} s", flush=True)
             rows.append(row)
-        if args.table is not None:
-            write_csv(args.table, rows, COLUMNS, args.overwrite)
-        if args.plot is not None:
-            write_figure(plot(rows), args.plot, args.overwrite)
+        write_outputs(args.table, rows, COLUMNS, args.plot, lambda: plot(rows), args.overwrite)
     except SacflowError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2

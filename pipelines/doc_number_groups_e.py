@@ -1,9 +1,12 @@
 """Groups of ``pipelines/record_doc_numbers.py`` for docs/convergence.md's lateral cells refined
-further, with the contact's edge on a cell boundary: the lateral part of the limit from the
-parts (``data/convergence-parts-lateral-fine.csv`` and ``-summary.csv``, written by
+further, each count putting the Hertz contact's edge on a cell boundary: the lateral part of
+the limit from the parts (``data/convergence-parts-lateral-fine.csv`` and ``-summary.csv``,
+written by
 ``pipelines/convergence.py``; #32), against the scans at 120–136 cells per side
 (``data/convergence-650-lateral-scan.csv``) and the first lateral sequence
-(``data/convergence-parts-steps6.csv``).
+(``data/convergence-parts-steps6.csv``); and for the edge the approach's zigzag follows
+(``data/contact-edge-phase.csv``, written by ``pipelines/contact_edge_phase.py`` from the scans
+of ``pipelines/contact_edge_scan.py``).
 
 Each group is a function of the output folder (unused: the numbers are read from ``data/``)
 returning ``{key: value in SI units}``; ``record_doc_numbers.GROUPS`` registers it.
@@ -118,5 +121,43 @@ def _parts_moved() -> dict[str, float]:
     return numbers
 
 
+
+
+#: The scans the zigzag's edge is read from, by case: their ``contact-edge-*.csv`` tables.
+EDGE_SCANS = {"hertz-elastic": "contact-edge-hertz", "nanoindentation-650mN": "contact-edge-650",
+              "nanoindentation-190mN": "contact-edge-190"}
+#: The lateral levels whose contact edge's phase the doc quotes (cells per side).
+PHASE_LEVELS = (64, 120, 128, 160, 192, 200)
+
+
+def contact_edge_phase(out: Path) -> dict[str, float]:
+    """Which edge the approach's zigzag follows (``pipelines/contact_edge_phase.py``,
+    ``data/contact-edge-phase.csv``): per case and edge (``hertz``, ``contact``) the share of
+    the spread it explains and the periodic part's amplitude relative to the approach
+    (``phase_{case}_{edge}_explained``, ``_amplitude``); per plastic case the contact's radius
+    over Hertz's at its finest count (``phase_{case}_radius_ratio``) and its edge's phase at
+    the lateral levels (``phase_{case}_level_{nx}``, in cells)."""
+    numbers: dict[str, float] = {}
+    short = CELL_MEAN_CASES | {"hertz-elastic": "hertz"}
+    for r in data_rows("contact-edge-phase.csv"):
+        key = f"phase_{short[r['case']]}_{r['edge']}"
+        scan = data_rows(f"{EDGE_SCANS[r['case']]}.csv")
+        approach = max(float(s["approach"]) for s in scan)
+        numbers[f"{key}_explained"] = float(r["explained"])
+        numbers[f"{key}_amplitude"] = float(r["amplitude"]) / approach
+    for name, table in EDGE_SCANS.items():
+        if name not in CELL_MEAN_CASES:
+            continue
+        scan = {int(s["nx"]): s for s in data_rows(f"{table}.csv")}
+        finest = scan[max(scan)]
+        case = CELL_MEAN_CASES[name]
+        numbers[f"phase_{case}_radius_ratio"] = (float(finest["contact_radius"])
+                                                 / float(finest["hertz_radius"]))
+        numbers.update({f"phase_{case}_level_{nx}": float(scan[nx]["contact_phase"])
+                        for nx in PHASE_LEVELS if nx in scan})
+    return numbers
+
+
 #: The groups of this module: name -> (speed, function of the output folder).
-GROUPS = {"lateral_fine": ("fast", lateral_fine)}
+GROUPS = {"lateral_fine": ("fast", lateral_fine),
+          "contact_edge_phase": ("fast", contact_edge_phase)}

@@ -34,6 +34,11 @@ def test_the_edge_phase_is_the_hertz_radius_in_cells_less_its_nearest_whole_numb
         assert row["edge_phase"] == pytest.approx(phase, abs=1e-9)
         # the loaded cells of the axis row reach the Hertz edge to within a cell
         assert abs(row["edge_cells"] - hertz.a / row["cell"]) <= 1.0
+        # the circle of the loaded cells' area is Hertz's to a quarter of a cell, and its phase
+        # is read off it as the Hertz edge's
+        assert abs(row["contact_radius"] - hertz.a) <= 0.25 * row["cell"]
+        in_cells = row["contact_radius"] / row["cell"]
+        assert row["contact_phase"] == pytest.approx(in_cells - round(in_cells), abs=1e-12)
         assert abs(row["approach_error"]) < 0.01  # δ = a²/R within 1 % on 8 cells per radius
 
 

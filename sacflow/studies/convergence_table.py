@@ -20,7 +20,7 @@ import csv
 import math
 import os
 import tempfile
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -60,6 +60,7 @@ __all__ = [
     "write_csv",
     "write_runs_table",
     "write_figure",
+    "write_outputs",
 ]
 
 LEVEL_COLUMNS: tuple[str, ...] = (
@@ -389,6 +390,20 @@ def write_figure(figure: Figure, path: Path, overwrite: bool = False) -> None:
                 os.remove(tmp)
     except OSError as err:
         raise SacflowError(f"cannot write the plot {path}: {err.strerror or err}") from None
+
+
+def write_outputs(table: Path | None, rows: Sequence[Mapping[str, Any]], columns: Sequence[str],
+                  plot: Path | None, figure: Callable[[], Figure],
+                  overwrite: bool = False) -> None:
+    """Write a scan script's ``--table`` and ``--plot``, each where given.
+
+    The table through :func:`write_csv`, the figure through :func:`write_figure`; ``figure``
+    draws it, and is called only when a plot is asked for.
+    """
+    if table is not None:
+        write_csv(table, rows, columns, overwrite)
+    if plot is not None:
+        write_figure(figure(), plot, overwrite)
 
 
 def _cell(value: Any) -> Any:
