@@ -58,9 +58,9 @@ __all__ = [
     "refuse_existing_table",
     "summary_rows",
     "write_csv",
-    "write_runs_table",
     "write_figure",
     "write_outputs",
+    "write_runs_table",
 ]
 
 LEVEL_COLUMNS: tuple[str, ...] = (
