@@ -31,6 +31,10 @@ EDGE_PERIOD = 4
 #: The first lateral sequence's finest level (cells per side), also a multiple of four, and the
 #: coarsest lateral level both sequences' steps are relative to.
 ALTERNATIVE, COARSEST = 192, 32
+#: Counts at which the 650 mN contact's own edge falls within a tenth of a cell of one phase
+#: (``data/contact-edge-650.csv``): the first from the lateral scan, the others the finer
+#: sequence's.
+KEPT_PHASE = (120, 160, 200)
 
 
 def _lateral(table: str, name: str, quantity: str) -> dict[int, float]:
@@ -51,7 +55,10 @@ def lateral_fine(out: Path) -> dict[str, float]:
     above the 120² one (``fine_650mN_base_above_120``, SI); and each quantity's order where
     the finer sequence converges (``fine_{case}_{quantity}_order``); per case, the approach's
     limit through 128², 160² and the first sequence's 192² cells instead of 200², relative to
-    the finer sequence's (``fine_{case}_approach_alternative_shift``), where both converge."""
+    the finer sequence's (``fine_{case}_approach_alternative_shift``), where both converge; the
+    650 mN approach's limit through the counts that keep its contact's own edge's phase
+    (:data:`KEPT_PHASE`) relative to the finer sequence's
+    (``fine_650mN_approach_kept_phase_shift``)."""
     numbers: dict[str, float] = {}
     summary = data_rows(f"{FINE}-summary.csv")
     for name, case in CELL_MEAN_CASES.items():
@@ -81,6 +88,7 @@ def lateral_fine(out: Path) -> dict[str, float]:
         for coarse, fine in zip(cells, cells[1:], strict=False):
             numbers[f"fine_{case}_approach_step_{fine}"] = levels[fine] - levels[coarse]
     name = next(n for n, c in CELL_MEAN_CASES.items() if c == "650mN")
+    rows_650 = {r["quantity"]: r for r in summary if r["case"] == name}
     first = _lateral("convergence-parts-steps6", name, APPROACH)
     fine = _lateral(FINE, name, APPROACH)
     numbers["fine_650mN_approach_reversal"] = (first[192] - fine[200]) / numbers[
@@ -91,6 +99,11 @@ def lateral_fine(out: Path) -> dict[str, float]:
     for coarse, finer in zip(counts, counts[1:], strict=False):
         numbers[f"fine_650mN_scan_step_{finer}"] = scan[finer] - scan[coarse]
     numbers["fine_650mN_base_above_120"] = first[64] - scan[min(counts)]
+    kept = [scan[KEPT_PHASE[0]], *(fine[n] for n in KEPT_PHASE[1:])]
+    other = extrapolate_steps(kept, [COARSEST / n for n in KEPT_PHASE],
+                              float(rows_650[APPROACH]["formal_order"]))
+    numbers["fine_650mN_approach_kept_phase_shift"] = (
+        other.limit - numbers["fine_650mN_approach_limit"]) / numbers["fine_650mN_approach_limit"]
     return numbers | _parts_moved()
 
 
