@@ -10,9 +10,10 @@ approach, the peak pressure, the loaded cells of the row nearest the axis on the
 in its cell, ``edge_phase`` = a / Δx less its nearest whole number, with a the Hertz contact
 radius of the case: 0 when that edge lies on a cell boundary, ±0.5 when it lies on a cell's
 centre (the axis lies on a cell corner with an even number of cells). The contact's own
-radius, which a plastic body widens beyond Hertz's, is that of the circle with the loaded
-cells' area, ``contact_radius`` = (N ΔA / π)^½, and ``contact_phase`` is where its edge falls
-in its cell, as ``edge_phase``. For an elastic case the approach is compared with Hertz's
+radius, which a plastic body widens beyond Hertz's, is that of the circle with the contact's
+area (the loaded cells', or with the contact on sub-cells the loaded sub-cells'),
+``contact_radius`` = (A / π)^½, and ``contact_phase`` is where its edge falls in its cell, as
+``edge_phase``. For an elastic case the approach is compared with Hertz's
 δ = a²/R (``approach_error``).
 
 Refining the cells by a factor of two keeps the edge's phase when a / Δx is a whole number;
@@ -88,7 +89,7 @@ def scan_one(path: Path, overrides: list[str], nx: int) -> dict[str, Any]:
     cell = float(x1[1] - x1[0])
     hertz = case.hertz()
     loaded = int(np.count_nonzero(profile > 0.0))
-    radius = math.sqrt(np.count_nonzero(pressure > 0.0) * cell * float(x2[1] - x2[0]) / math.pi)
+    radius = math.sqrt(float(states[top].contact_area) / math.pi)
     approach = float(states[top].approach)
     elastic = case.body.hardening.law == "elastic"
     exact = hertz.approach if elastic else math.nan

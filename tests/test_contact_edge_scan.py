@@ -65,3 +65,13 @@ def test_an_existing_table_stops_the_scan_before_it_runs(tmp_path: Path, capsys)
         pipeline().main([str(HERTZ), *TINY, "--nx", "12", "--table", str(table)])
     assert "nx   12" not in capsys.readouterr().out  # nothing ran
     assert table.read_text() == "the user's own\n"
+
+
+def test_on_sub_cells_the_contact_s_radius_is_that_of_the_loaded_sub_cells():
+    """With the contact on 2 × 2 sub-cells a cell is loaded when any of its sub-cells is: the
+    circle of the loaded cells would be too wide, that of the sub-cells' area is Hertz's to a
+    tenth of a cell at 8 cells per radius (0.14 of a cell on the cells themselves)."""
+    scan = pipeline()
+    hertz = hertz_contact(0.65, 105e-6, 210e9 / (1 - 0.3**2))
+    row = scan.scan_one(HERTZ, [*TINY, "solver.contact_subcells=2"], 24)
+    assert abs(row["contact_radius"] - hertz.a) <= 0.1 * row["cell"]
