@@ -23,10 +23,12 @@ import numpy as np
 
 from sacflow.errors import SacflowError
 from sacflow.studies.convergence_table import refuse_existing_table, write_outputs
-from sacflow.studies.edge_phase import PhaseFit, phase_fit
+from sacflow.studies.edge_phase import MIN_COUNTS, PhaseFit, phase_fit
 
 #: The phases a scan is fitted with: its column -> the edge it places.
 PHASES = {"edge_phase": "hertz", "contact_phase": "contact"}
+#: The columns of a scan this script reads.
+SCAN_COLUMNS = ("case", "nx", "approach", *PHASES)
 #: One row per scan and phase of ``--table`` (lengths in metres, phases in cells).
 COLUMNS = ("case", "edge", "counts", "slope", "amplitude", "peak_phase", "spread", "residual",
            "explained")
@@ -61,14 +63,18 @@ def read_scan(path: Path, counts: tuple[int, int]) -> dict[str, np.ndarray]:
         raise SacflowError(f"no scan {path}: give a --table of pipelines/contact_edge_scan.py")
     with path.open(newline="", encoding="utf-8") as f:
         reader = csv.DictReader(f)
-        if "contact_phase" not in (reader.fieldnames or ()):
-            raise SacflowError(f"{path} has no contact_phase column: scan it again with "
-                               f"pipelines/contact_edge_scan.py")
+        missing = [c for c in SCAN_COLUMNS if c not in (reader.fieldnames or ())]
+        if missing:
+            raise SacflowError(f"{path} lacks the column(s) {', '.join(missing)}: scan it "
+                               f"again with pipelines/contact_edge_scan.py")
         rows = [r for r in reader if counts[0] <= int(r["nx"]) <= counts[1]]
     cases = {r["case"] for r in rows}
     if len(cases) != 1:
         raise SacflowError(f"{path}: {len(cases)} cases within --nx-range {counts[0]},"
                            f"{counts[1]}; a scan is one case with counts in that range")
+    if len(rows) < MIN_COUNTS:
+        raise SacflowError(f"{path}: {len(rows)} counts within --nx-range {counts[0]},"
+                           f"{counts[1]}; a phase fit needs {MIN_COUNTS} or more: widen it")
     out = {name: np.array([float(r[name]) for r in rows])
            for name in ("nx", "approach", *PHASES)}
     return {"case": np.array(cases.pop()), **out}

@@ -36,7 +36,13 @@ from sacflow.studies.certify import (
     transfer,
 )
 from sacflow.studies.convergence import STUDY_CASES, base_case, shipped_discretisation
-from sacflow.studies.convergence_table import finest_step, read_summary, write_csv, write_figure
+from sacflow.studies.convergence_table import (
+    finest_step,
+    read_summary,
+    refuse_existing_table,
+    write_csv,
+    write_figure,
+)
 from sacflow.studies.error_parts import ModelCheck, Part, PartsLimit, parts_limit
 from sacflow.studies.richardson import MONOTONE
 
@@ -208,6 +214,7 @@ PARTS_COLUMNS: tuple[str, ...] = (
     "together_limit", "together_uncertainty",
 )
 
+
 @dataclass(frozen=True)
 class PartsFound:
     """One quantity's limit from the parts, with the `together` row it stands in for."""
@@ -339,18 +346,21 @@ def parts_limits(case: str, sources: Sources, data: Path = DATA) -> dict[str, Pa
     return out
 
 
-def certificates(case: str, sources: Sources, data: Path = DATA) -> list[Certificate]:
+def certificates(case: str, sources: Sources, data: Path = DATA,
+                 from_parts: dict[str, PartsFound] | None = None) -> list[Certificate]:
     """Each quantity of :data:`QUANTITIES` that every table of ``case`` has, certified.
 
     The points of the σ11 profile on the axis are judged against the profile's largest
     magnitude, the certified limit of its minimum (:data:`PROFILE_SCALE`, first in
     :data:`QUANTITIES` order before them). Where the `together` sequence has no limit, the
-    parts' (:func:`parts_limits`) stands in when they give one.
+    parts' (:func:`parts_limits`, or ``from_parts`` when the caller has them) stands in when
+    they give one.
     """
     together = read_summary(data / sources.together)
     window = read_summary(data / sources.window_summary())
     changes = option_changes(case, sources, data)
-    from_parts = parts_limits(case, sources, data)
+    if from_parts is None:
+        from_parts = parts_limits(case, sources, data)
     out: list[Certificate] = []
     scale: float | None = None
     for name in QUANTITIES:
@@ -379,9 +389,17 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--overwrite", action="store_true",
                         help="replace an existing table or plot")
     args = parser.parse_args(argv)
+    try:  # every output checked first: none is written when one is refused
+        for path in (args.table, args.plot, args.parts_table):
+            refuse_existing_table(path, args.overwrite)
+    except SystemExit as refused:
+        print(refused, file=sys.stderr)
+        return 1
     try:
-        found = [c for case, s in SOURCES.items() for c in certificates(case, s)]
-        from_parts = [p for case, s in SOURCES.items() for p in parts_limits(case, s).values()]
+        by_case = {case: parts_limits(case, s) for case, s in SOURCES.items()}
+        found = [c for case, s in SOURCES.items() for c in certificates(case, s, DATA,
+                                                                        by_case[case])]
+        from_parts = [p for parts in by_case.values() for p in parts.values()]
         if args.parts_table is not None:
             write_csv(args.parts_table, [p.row() for p in from_parts], PARTS_COLUMNS,
                       args.overwrite)

@@ -134,8 +134,6 @@ def _parts_moved() -> dict[str, float]:
     return numbers
 
 
-
-
 #: The scans the zigzag's edge is read from, by case: their ``contact-edge-*.csv`` tables.
 EDGE_SCANS = {"hertz-elastic": "contact-edge-hertz", "nanoindentation-650mN": "contact-edge-650",
               "nanoindentation-190mN": "contact-edge-190"}

@@ -324,3 +324,18 @@ def test_a_finer_lateral_table_must_refine_the_lateral_cells_alone_on_the_parts_
     shutil.copy(summary, tmp_path / summary.name)
     with pytest.raises(SacflowError, match="160² × 48"):
         convergence_certify.lateral_part_rows(case, changed, base, 32)
+
+
+def test_an_existing_output_stops_the_script_before_any_other_is_written(tmp_path, capsys):
+    """With ``--table`` the user's and ``--parts-table`` new, neither is written."""
+    import sys
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "pipelines"))
+    import convergence_certify
+
+    table, parts = tmp_path / "certified.csv", tmp_path / "parts.csv"
+    table.write_text("the user's\n")
+    assert convergence_certify.main(["--table", str(table), "--parts-table", str(parts)]) == 1
+    assert table.read_text() == "the user's\n"
+    assert not parts.exists()
+    assert "--overwrite" in capsys.readouterr().err

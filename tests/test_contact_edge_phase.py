@@ -55,7 +55,7 @@ def test_a_scan_without_the_contact_phase_is_named(tmp_path, capsys):
     scan = tmp_path / "old.csv"
     write_scan(scan, ("case", "nx", "edge_phase", "approach"))
     assert pipeline().main([str(scan)]) == 2
-    assert "no contact_phase column" in capsys.readouterr().err
+    assert "lacks the column(s) contact_phase" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("text, words", [("120", "two whole numbers"),
@@ -72,3 +72,10 @@ def test_an_existing_table_is_not_replaced(tmp_path):
     with pytest.raises(SystemExit, match="exists; nothing was changed"):
         pipeline().main([str(scan), "--table", str(table)])
     assert table.read_text() == "the user's own\n"
+
+
+def test_too_few_counts_in_the_range_are_named(tmp_path, capsys):
+    scan = tmp_path / "scan.csv"
+    write_scan(scan)
+    assert pipeline().main([str(scan), "--nx-range", "120,126"]) == 2
+    assert "4 counts within --nx-range 120,126" in capsys.readouterr().err

@@ -25,7 +25,7 @@ from numpy.typing import ArrayLike
 
 from sacflow.studies.richardson import NEGLIGIBLE_CHANGE
 
-__all__ = ["PhaseFit", "phase_fit"]
+__all__ = ["MIN_COUNTS", "PhaseFit", "phase_fit"]
 
 #: Fewest counts the four-coefficient model is fitted to with a residual left to judge by.
 MIN_COUNTS = 6
